@@ -1,0 +1,25 @@
+//! teachcam: program an industrial robot by demonstration.
+//!
+//! A person moves a hand tool (a paintbrush) carrying reflective spheres; three or more
+//! calibrated, synchronised cameras film it; teachcam turns the images into a smooth, checked
+//! 6-DOF tool trajectory and a robot program. The method is Cordier et al.'s trinocular
+//! tracker (`paper.md`): detect → correspond → triangulate → identify → register → smooth →
+//! check → export.
+//!
+//! # Conventions
+//! - Lengths in millimetres, time in seconds, angles in radians, `f64` everywhere; other units
+//!   carry a suffix in the name (`cutoff_hz`, `noise_px`).
+//! - A transform `a_from_b` maps coordinates in frame `b` into frame `a`: `x_a = a_from_b * x_b`.
+//! - Cameras follow OpenCV: `x_cam = R * X_world + t`; camera z forward, x right, y down.
+//! - Pixels follow OpenCV: the centre of the top-left pixel is `(0, 0)`.
+//! - Distortion is OpenCV's `[k1, k2, p1, p2, k3]`.
+//! - Quaternions are Hamilton, unit, written `(qw, qx, qy, qz)`, `qw >= 0` unless continuity
+//!   along a trajectory asks for the other sign.
+//! - Frame numbers are 0-based indices in the recording's order.
+//!
+//! # Modules, in the order data flows
+//! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
+//! - [`camera`]: the camera model, distortion and epipolar geometry.
+
+pub mod camera;
+pub mod geometry;
