@@ -20,6 +20,12 @@
 //! # Modules, in the order data flows
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
+//! - [`tool`]: the tracked tool's markers and tip.
+//! - [`trajectory`]: poses over time, with explicit gaps.
+//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
 
 pub mod camera;
 pub mod geometry;
+pub mod io;
+pub mod tool;
+pub mod trajectory;
