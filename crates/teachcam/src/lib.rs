@@ -23,9 +23,11 @@
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
 //! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
+//! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
 
 pub mod camera;
 pub mod geometry;
 pub mod io;
+pub mod sim;
 pub mod tool;
 pub mod trajectory;
