@@ -122,6 +122,17 @@ fn check_inputs(
     Ok(views)
 }
 
+/// One Monte Carlo trial's errors against the true pose.
+#[derive(Debug, Clone, Copy)]
+struct TrialError {
+    /// Tip error, world frame, millimetres.
+    tip: Vector3<f64>,
+    /// Tool-origin error, world frame, millimetres.
+    origin: Vector3<f64>,
+    /// Rotation error vector, world frame, radians.
+    rotation: Vector3<f64>,
+}
+
 /// World-frame rotation vector of `measured · trueᵀ`.
 fn rotation_error(measured: &Pose, truth: &Pose) -> Vector3<f64> {
     (measured.rotation * truth.rotation.inverse()).scaled_axis()
@@ -162,8 +173,7 @@ pub fn monte_carlo(
     let tip_true = world_from_tool * tool.tip_in_tool();
     let noise = Normal::new(0.0, noise_px).map_err(|_| MetrologyError::BadNoise(noise_px))?;
     const CHUNK: usize = 256;
-    let chunks: Vec<Vec<Option<(Vector3<f64>, Vector3<f64>, Vector3<f64>)>>> = (0..trials
-        .div_ceil(CHUNK))
+    let chunks: Vec<Vec<Option<TrialError>>> = (0..trials.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
             let mut rng = ChaCha8Rng::seed_from_u64(
@@ -171,7 +181,7 @@ pub fn monte_carlo(
             );
             let count = CHUNK.min(trials - chunk * CHUNK);
             (0..count)
-                .map(|_| {
+                .map(|_| -> Option<TrialError> {
                     let mut frame = Views::new();
                     for (camera, _, px) in &views {
                         let noisy = Pixel::new(
@@ -181,12 +191,12 @@ pub fn monte_carlo(
                         frame.entry(*camera).or_default().push(noisy);
                     }
                     let pose = tracker.track_frame(&frame).outcome.ok()?;
-                    Some((
-                        pose.tip_in_world - tip_true,
-                        pose.world_from_tool.translation.vector
+                    Some(TrialError {
+                        tip: pose.tip_in_world - tip_true,
+                        origin: pose.world_from_tool.translation.vector
                             - world_from_tool.translation.vector,
-                        rotation_error(&pose.world_from_tool, world_from_tool),
-                    ))
+                        rotation: rotation_error(&pose.world_from_tool, world_from_tool),
+                    })
                 })
                 .collect()
         })
@@ -196,9 +206,9 @@ pub fn monte_carlo(
     if ok.len() < 2 {
         return Err(MetrologyError::AllTrialsFailed { trials });
     }
-    let tips: Vec<Vector3<f64>> = ok.iter().map(|r| r.0).collect();
-    let origins: Vec<Vector3<f64>> = ok.iter().map(|r| r.1).collect();
-    let rotations: Vec<Vector3<f64>> = ok.iter().map(|r| r.2).collect();
+    let tips: Vec<Vector3<f64>> = ok.iter().map(|r| r.tip).collect();
+    let origins: Vec<Vector3<f64>> = ok.iter().map(|r| r.origin).collect();
+    let rotations: Vec<Vector3<f64>> = ok.iter().map(|r| r.rotation).collect();
     let (tip_std_mm, tip_mean) = std_of(&tips);
     let (position_std_mm, _) = std_of(&origins);
     let (rotation_std, _) = std_of(&rotations);
