@@ -2,4 +2,6 @@
 
 pub mod demo;
 pub mod simulate;
+pub mod tool_check;
 pub mod uncertainty;
+pub mod uncertainty_map;
