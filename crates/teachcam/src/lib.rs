@@ -20,6 +20,8 @@
 //! # Modules, in the order data flows
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
+//! - [`detect`]: marker blobs in an image, with sub-pixel centres.
 
 pub mod camera;
+pub mod detect;
 pub mod geometry;
