@@ -21,7 +21,13 @@
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
 //! - [`detect`]: marker blobs in an image, with sub-pixel centres.
+//! - [`tool`]: the tracked tool's markers and tip.
+//! - [`trajectory`]: poses over time, with explicit gaps.
+//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
 
 pub mod camera;
 pub mod detect;
 pub mod geometry;
+pub mod io;
+pub mod tool;
+pub mod trajectory;
