@@ -43,10 +43,18 @@ impl Circle {
         let d = 2.0 * (bx * cy - by * cx);
         let scale = (bx * bx + by * by).max(cx * cx + cy * cy);
         if d.abs() <= 1e-12 * scale {
-            let candidates = [Self::through_two(a, b), Self::through_two(a, c), Self::through_two(b, c)];
-            return candidates
-                .into_iter()
-                .fold(candidates[0], |best, c| if c.radius_px > best.radius_px { c } else { best });
+            let candidates = [
+                Self::through_two(a, b),
+                Self::through_two(a, c),
+                Self::through_two(b, c),
+            ];
+            return candidates.into_iter().fold(candidates[0], |best, c| {
+                if c.radius_px > best.radius_px {
+                    c
+                } else {
+                    best
+                }
+            });
         }
         let b2 = bx * bx + by * by;
         let c2 = cx * cx + cy * cy;
@@ -125,11 +133,19 @@ mod tests {
         assert!((c.center.x - 1.0).abs() < 1e-12 && (c.center.y - 1.0).abs() < 1e-12);
         assert!((c.radius_px - 2f64.sqrt()).abs() < 1e-12);
         // An obtuse triangle: the circle on its longest side.
-        let obtuse = [Pixel::new(0.0, 0.0), Pixel::new(10.0, 0.0), Pixel::new(5.0, 1.0)];
+        let obtuse = [
+            Pixel::new(0.0, 0.0),
+            Pixel::new(10.0, 0.0),
+            Pixel::new(5.0, 1.0),
+        ];
         let c = smallest_enclosing_circle(&obtuse).unwrap();
         assert!((c.center.x - 5.0).abs() < 1e-12 && c.center.y.abs() < 1e-12);
         assert!((c.radius_px - 5.0).abs() < 1e-12);
-        let collinear = [Pixel::new(0.0, 0.0), Pixel::new(3.0, 0.0), Pixel::new(1.0, 0.0)];
+        let collinear = [
+            Pixel::new(0.0, 0.0),
+            Pixel::new(3.0, 0.0),
+            Pixel::new(1.0, 0.0),
+        ];
         let c = smallest_enclosing_circle(&collinear).unwrap();
         assert!((c.radius_px - 1.5).abs() < 1e-12);
         assert!(smallest_enclosing_circle(&[]).is_none());

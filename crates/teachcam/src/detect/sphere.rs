@@ -73,7 +73,7 @@ pub fn sphere_center_pixel(
                     return Ok(*ellipse_center);
                 }
                 s2 = area_over_pi * delta.powf(1.5) / (1.0 - s2).sqrt();
-                if !(s2 < 1.0) {
+                if s2.is_nan() || s2 >= 1.0 {
                     return Ok(*ellipse_center);
                 }
                 t = tangent_of_center(m, s2);
@@ -190,7 +190,10 @@ mod tests {
                         SphereRange::ApparentRadiusPx(radius_px),
                     )
                     .unwrap();
-                    assert!(apparent.distance(&truth) < 1e-7, "{apparent:?} vs {truth:?}");
+                    assert!(
+                        apparent.distance(&truth) < 1e-7,
+                        "{apparent:?} vs {truth:?}"
+                    );
                 }
             }
         }
