@@ -24,7 +24,9 @@ pub struct Circle {
 
 impl Circle {
     fn contains(&self, p: &Pixel) -> bool {
-        self.center.distance(p) <= self.radius_px + INSIDE_TOLERANCE_PX
+        let (dx, dy) = (p.x - self.center.x, p.y - self.center.y);
+        let reach = self.radius_px + INSIDE_TOLERANCE_PX;
+        dx * dx + dy * dy <= reach * reach
     }
 
     fn through_two(a: &Pixel, b: &Pixel) -> Self {

@@ -119,7 +119,7 @@ fn find_runs<P: Intensity>(image: GrayView<'_, P>, threshold: u32) -> Vec<Run> {
         let mut x = 0;
         while x < w {
             if row[x] <= t {
-                if x % CHUNK == 0 && x + CHUNK <= w && chunk_max(&row[x..x + CHUNK]) <= t {
+                if x % CHUNK == 0 && x + CHUNK <= w && !any_above(&row[x..x + CHUNK], t) {
                     x += CHUNK;
                 } else {
                     x += 1;
@@ -140,12 +140,11 @@ fn find_runs<P: Intensity>(image: GrayView<'_, P>, threshold: u32) -> Vec<Run> {
     runs
 }
 
-/// The largest value of a chunk, written so that it vectorises.
+/// True when some value of the chunk is above `t`; without an early exit, so that it
+/// vectorises.
 #[inline]
-fn chunk_max<P: Intensity>(chunk: &[P]) -> P {
-    chunk
-        .iter()
-        .fold(P::zero(), |a, &b| if b > a { b } else { a })
+fn any_above<P: Intensity>(chunk: &[P], t: P) -> bool {
+    chunk.iter().fold(false, |found, &v| found | (v > t))
 }
 
 /// Unites each run with the runs of the previous row it touches (8-connectivity).

@@ -113,6 +113,24 @@ impl Moments {
         self.xy += x * y;
     }
 
+    /// Adds a row segment of `n` pixels starting at column `x0` of row `y`, whose weights sum
+    /// to `w` and whose weights times their offset from `x0` sum to `wx`: the sums of the
+    /// coordinates over the segment are arithmetic series.
+    fn add_row(&mut self, x0: f64, n: f64, y: f64, w: f64, wx: f64) {
+        // Σ_{k<n} k = n(n−1)/2,  Σ_{k<n} k² = (n−1)n(2n−1)/6
+        let sum_k = 0.5 * n * (n - 1.0);
+        let sum_k2 = (n - 1.0) * n * (2.0 * n - 1.0) / 6.0;
+        self.count += n;
+        self.w += w;
+        self.wx += wx + x0 * w;
+        self.wy += y * w;
+        self.x += n * x0 + sum_k;
+        self.y += n * y;
+        self.xx += n * x0 * x0 + 2.0 * x0 * sum_k + sum_k2;
+        self.yy += n * y * y;
+        self.xy += y * (n * x0 + sum_k);
+    }
+
     /// The weighted centroid and its predicted per-axis standard deviation for noise `σ`.
     fn centroid(&self, noise_std: f64) -> Option<(f64, f64, f64)> {
         if self.w.is_nan() || self.w <= 0.0 {
@@ -139,22 +157,30 @@ fn disc_centroid<P: Intensity>(
 ) -> Option<((f64, f64, f64), f64)> {
     let mut center = start;
     let mut result = None;
+    let r2 = radius_px * radius_px;
     for _ in 0..REFINE_STEPS {
         let mut m = Moments::default();
         for y in window.y_min..=window.y_max {
-            let row = image.row(y as usize);
             let dy = f64::from(y) - origin.1;
-            let dy2 = (dy - center.1).powi(2);
-            for x in window.x_min..=window.x_max {
-                let dx = f64::from(x) - origin.0;
-                if (dx - center.0).powi(2) + dy2 <= radius_px * radius_px {
-                    m.add(
-                        dx,
-                        dy,
-                        f64::from(row[x as usize].level()) - background.level,
-                    );
-                }
+            let reach2 = r2 - (dy - center.1).powi(2);
+            if reach2 < 0.0 {
+                continue;
             }
+            // Columns of this row inside the disc, cut to the window.
+            let reach = reach2.sqrt();
+            let x_lo = (center.0 + origin.0 - reach).ceil().max(f64::from(window.x_min)) as u32;
+            let x_hi = (center.0 + origin.0 + reach).floor().min(f64::from(window.x_max)) as u32;
+            if x_lo > x_hi {
+                continue;
+            }
+            let row = &image.row(y as usize)[x_lo as usize..=x_hi as usize];
+            let (mut w, mut wx) = (0.0, 0.0);
+            for (k, v) in row.iter().enumerate() {
+                let v = f64::from(v.level()) - background.level;
+                w += v;
+                wx += v * k as f64;
+            }
+            m.add_row(f64::from(x_lo) - origin.0, row.len() as f64, dy, w, wx);
         }
         let c = m.centroid(background.noise_std)?;
         center = (c.0, c.1);
