@@ -168,8 +168,12 @@ fn disc_centroid<P: Intensity>(
             }
             // Columns of this row inside the disc, cut to the window.
             let reach = reach2.sqrt();
-            let x_lo = (center.0 + origin.0 - reach).ceil().max(f64::from(window.x_min)) as u32;
-            let x_hi = (center.0 + origin.0 + reach).floor().min(f64::from(window.x_max)) as u32;
+            let x_lo = (center.0 + origin.0 - reach)
+                .ceil()
+                .max(f64::from(window.x_min)) as u32;
+            let x_hi = (center.0 + origin.0 + reach)
+                .floor()
+                .min(f64::from(window.x_max)) as u32;
             if x_lo > x_hi {
                 continue;
             }
