@@ -20,6 +20,7 @@
 //! # Modules, in the order data flows
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
+//! - [`detect`]: marker blobs in an image, with sub-pixel centres.
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
 //! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
@@ -33,6 +34,7 @@
 
 pub mod camera;
 pub mod correspond;
+pub mod detect;
 pub mod geometry;
 pub mod identify;
 pub mod io;
