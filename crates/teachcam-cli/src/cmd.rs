@@ -4,6 +4,7 @@ pub mod demo;
 pub mod detect;
 pub mod repeatability;
 pub mod simulate;
+pub mod track;
 pub mod tool_check;
 pub mod uncertainty;
 pub mod uncertainty_map;
