@@ -20,6 +20,8 @@
 //! # Modules, in the order data flows
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
+//! - [`c3d`]: C3D motion-capture files in and out, and marker exports of other trackers.
 
+pub mod c3d;
 pub mod camera;
 pub mod geometry;
