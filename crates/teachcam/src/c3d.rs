@@ -50,16 +50,19 @@ const KEY: u8 = 0x50;
 /// Error reading or writing a C3D file.
 #[derive(Debug, thiserror::Error)]
 pub enum C3dError {
-    /// The file could not be read or written.
-    #[error("{path}: {source}")]
+    /// The file could not be read.
+    #[error("cannot read {}: {source}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The system's error.
         source: std::io::Error,
     },
+    /// The output file could not be written.
+    #[error(transparent)]
+    Write(crate::io::FileError),
     /// An error inside a named file.
-    #[error("{path}: {source}")]
+    #[error("{}: {source}", path.display())]
     InFile {
         /// The file.
         path: PathBuf,

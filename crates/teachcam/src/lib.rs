@@ -20,8 +20,14 @@
 //! # Modules, in the order data flows
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
+//! - [`tool`]: the tracked tool's markers and tip.
+//! - [`trajectory`]: poses over time, with explicit gaps.
+//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
 //! - [`c3d`]: C3D motion-capture files in and out, and marker exports of other trackers.
 
 pub mod c3d;
 pub mod camera;
 pub mod geometry;
+pub mod io;
+pub mod tool;
+pub mod trajectory;

@@ -11,7 +11,6 @@
 //! ```
 //! `|POINT:SCALE|` is the residual step: the residual is stored as a byte in those units.
 
-use std::io::Write as _;
 use std::path::Path;
 
 use super::{BLOCK_BYTES, C3dError, KEY, PointData};
@@ -110,33 +109,14 @@ pub fn to_bytes(points: &PointData, residual_step: f64) -> Result<Vec<u8>, C3dEr
     Ok(out)
 }
 
-/// Write `points` to `path` whole or not at all (a temporary file in the same folder, then a
-/// rename); see [`to_bytes`].
+/// Write `points` to `path` whole or not at all ([`crate::io::write_atomically`]); see
+/// [`to_bytes`].
 ///
 /// # Errors
-/// The errors of [`to_bytes`], and [`C3dError::Io`] when the file cannot be written.
+/// The errors of [`to_bytes`], and [`C3dError::Write`] when the file cannot be written.
 pub fn write_file(path: &Path, points: &PointData, residual_step: f64) -> Result<(), C3dError> {
     let bytes = to_bytes(points, residual_step)?;
-    let io = |source| C3dError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let folder = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let file_name = path
-        .file_name()
-        .map_or_else(|| "out.c3d".into(), |n| n.to_string_lossy().into_owned());
-    let temp = folder.join(format!(".{file_name}.{}.tmp", std::process::id()));
-    let result = std::fs::File::create(&temp)
-        .and_then(|mut f| f.write_all(&bytes).and_then(|()| f.sync_all()))
-        .and_then(|()| std::fs::rename(&temp, path));
-    if result.is_err() {
-        // Best effort: the temporary file may not exist; the original error is what matters.
-        let _ = std::fs::remove_file(&temp);
-    }
-    result.map_err(io)
+    crate::io::write_atomically(path, &bytes).map_err(C3dError::Write)
 }
 
 /// A parameter value to encode.
