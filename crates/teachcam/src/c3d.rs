@@ -484,6 +484,8 @@ fn read_points(
         });
     };
     let end = data_start + frame_bytes * frame_count;
+    // With no whole frame held, the data start may lie past the end of the file.
+    let data = bytes.get(data_start..end).unwrap_or_default();
     let labels = labels(parameters, marker_count);
     let units = parameters
         .get("POINT", "UNITS")
@@ -493,7 +495,7 @@ fn read_points(
     let mut samples = Vec::with_capacity(marker_count * frame_count);
     let abs_scale = scale.abs();
     if marker_count > 0 {
-        for frame in bytes[data_start..end].chunks_exact(frame_bytes) {
+        for frame in data.chunks_exact(frame_bytes) {
             let points = &frame[..marker_count * 4 * word];
             if is_float {
                 samples.extend(points.chunks_exact(16).map(|p| {

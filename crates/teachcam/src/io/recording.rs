@@ -47,7 +47,9 @@ impl GrayFrame {
         match image {
             DynamicImage::ImageLuma8(i) => Self::Eight(i),
             DynamicImage::ImageLuma16(i) => Self::Sixteen(i),
-            DynamicImage::ImageRgb16(_) | DynamicImage::ImageRgba16(_) | DynamicImage::ImageLumaA16(_) => Self::Sixteen(image.to_luma16()),
+            DynamicImage::ImageRgb16(_)
+            | DynamicImage::ImageRgba16(_)
+            | DynamicImage::ImageLumaA16(_) => Self::Sixteen(image.to_luma16()),
             other => Self::Eight(other.to_luma8()),
         }
     }
@@ -105,10 +107,16 @@ impl Recording {
 /// # Errors
 /// [`FileError`] naming the folder, the camera or the file.
 pub fn open_recording(root: &Path, fps_override: Option<f64>) -> Result<Recording, FileError> {
-    let entries = std::fs::read_dir(root).map_err(|source| FileError::Read { path: root.to_path_buf(), source })?;
+    let entries = std::fs::read_dir(root).map_err(|source| FileError::Read {
+        path: root.to_path_buf(),
+        source,
+    })?;
     let mut cameras = Vec::new();
     for entry in entries {
-        let entry = entry.map_err(|source| FileError::Read { path: root.to_path_buf(), source })?;
+        let entry = entry.map_err(|source| FileError::Read {
+            path: root.to_path_buf(),
+            source,
+        })?;
         let path = entry.path();
         if !path.is_dir() {
             continue;
@@ -118,9 +126,19 @@ pub fn open_recording(root: &Path, fps_override: Option<f64>) -> Result<Recordin
             continue;
         }
         let mut frames = Vec::new();
-        for file in std::fs::read_dir(&path).map_err(|source| FileError::Read { path: path.clone(), source })? {
-            let file = file.map_err(|source| FileError::Read { path: path.clone(), source })?.path();
-            let is_png = file.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        for file in std::fs::read_dir(&path).map_err(|source| FileError::Read {
+            path: path.clone(),
+            source,
+        })? {
+            let file = file
+                .map_err(|source| FileError::Read {
+                    path: path.clone(),
+                    source,
+                })?
+                .path();
+            let is_png = file
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
             if file.is_file() && is_png {
                 frames.push(file);
             }
@@ -130,29 +148,52 @@ pub fn open_recording(root: &Path, fps_override: Option<f64>) -> Result<Recordin
     }
     cameras.sort_by(|a, b| a.name.cmp(&b.name));
     if cameras.is_empty() {
-        return Err(FileError::invalid(root, "no camera sub-folders (expected cam0/, cam1/, ... with PNG frames)"));
+        return Err(FileError::invalid(
+            root,
+            "no camera sub-folders (expected cam0/, cam1/, ... with PNG frames)",
+        ));
     }
     let expected = cameras[0].frames.len();
     if let Some(empty) = cameras.iter().find(|c| c.frames.is_empty()) {
-        return Err(FileError::invalid(root, format!("camera {}: no PNG frames in {}/", empty.name, empty.name)));
+        return Err(FileError::invalid(
+            root,
+            format!("camera {}: no PNG frames in {}/", empty.name, empty.name),
+        ));
     }
     if let Some(other) = cameras.iter().find(|c| c.frames.len() != expected) {
         return Err(FileError::invalid(
             root,
-            format!("camera {} has {} frames but camera {} has {}", other.name, other.frames.len(), cameras[0].name, expected),
+            format!(
+                "camera {} has {} frames but camera {} has {}",
+                other.name,
+                other.frames.len(),
+                cameras[0].name,
+                expected
+            ),
         ));
     }
     let fps = match fps_override {
         Some(fps) => fps,
         None => {
             let file = root.join("recording.json");
-            if file.exists() { parse_json::<RecordingFile>(&file, &read_text(&file)?)?.fps } else { DEFAULT_FPS }
+            if file.exists() {
+                parse_json::<RecordingFile>(&file, &read_text(&file)?)?.fps
+            } else {
+                DEFAULT_FPS
+            }
         }
     };
     if !(fps.is_finite() && fps > 0.0) {
-        return Err(FileError::invalid(root, format!("fps must be a positive number, got {fps}")));
+        return Err(FileError::invalid(
+            root,
+            format!("fps must be a positive number, got {fps}"),
+        ));
     }
-    Ok(Recording { root: root.to_path_buf(), fps, cameras })
+    Ok(Recording {
+        root: root.to_path_buf(),
+        fps,
+        cameras,
+    })
 }
 
 /// Checks that every camera of the rig has frames in the recording (extra sub-folders are
@@ -166,7 +207,11 @@ pub fn check_recording_against_rig(recording: &Recording, rig: &Rig) -> Result<(
             let found: Vec<&str> = recording.cameras.iter().map(|c| c.name.as_str()).collect();
             return Err(FileError::invalid(
                 &recording.root,
-                format!("rig camera {} has no sub-folder (found: {})", camera.name, found.join(", ")),
+                format!(
+                    "rig camera {} has no sub-folder (found: {})",
+                    camera.name,
+                    found.join(", ")
+                ),
             ));
         }
     }
@@ -178,14 +223,20 @@ pub fn check_recording_against_rig(recording: &Recording, rig: &Rig) -> Result<(
 /// # Errors
 /// [`FileError`] naming the file: unreadable, not a PNG, truncated, or of the wrong size.
 pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<GrayFrame, FileError> {
-    let bytes = std::fs::read(path).map_err(|source| FileError::Read { path: path.to_path_buf(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| FileError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let image = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
         .map_err(|e| FileError::invalid(path, format!("not a readable PNG: {e}")))?;
     let frame = GrayFrame::from_dynamic(image);
     if let Some((w, h)) = expected_size {
         let (fw, fh) = frame.dimensions();
         if (fw, fh) != (w, h) {
-            return Err(FileError::invalid(path, format!("image is {fw}x{fh}, the rig says {w}x{h}")));
+            return Err(FileError::invalid(
+                path,
+                format!("image is {fw}x{fh}, the rig says {w}x{h}"),
+            ));
         }
     }
     Ok(frame)
@@ -204,7 +255,10 @@ pub fn write_png(path: &Path, image: &GrayImage) -> Result<(), FileError> {
     );
     image
         .write_with_encoder(encoder)
-        .map_err(|e| FileError::Write { path: path.to_path_buf(), source: std::io::Error::other(e) })?;
+        .map_err(|e| FileError::Write {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e),
+        })?;
     write_atomically(path, &bytes)
 }
 
@@ -230,7 +284,11 @@ mod tests {
         for (name, n) in cameras {
             std::fs::create_dir_all(root.join(name)).unwrap();
             for f in 0..*n {
-                write_png(&root.join(name).join(frame_file_name(f)), &GrayImage::new(8, 6)).unwrap();
+                write_png(
+                    &root.join(name).join(frame_file_name(f)),
+                    &GrayImage::new(8, 6),
+                )
+                .unwrap();
             }
         }
     }
@@ -247,8 +305,13 @@ mod tests {
         assert_eq!(open_recording(dir.path(), Some(25.0)).unwrap().fps, 25.0);
         let frame = read_frame(&rec.cameras[0].frames[2], Some((8, 6))).unwrap();
         assert_eq!(frame.dimensions(), (8, 6));
-        let message = read_frame(&rec.cameras[0].frames[2], Some((1280, 1024))).unwrap_err().to_string();
-        assert!(message.contains("000002.png") && message.contains("8x6"), "{message}");
+        let message = read_frame(&rec.cameras[0].frames[2], Some((1280, 1024)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("000002.png") && message.contains("8x6"),
+            "{message}"
+        );
     }
 
     #[test]
@@ -268,20 +331,36 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         make(dir.path(), &[("cam0", 3), ("cam1", 2)]);
         let message = open_recording(dir.path(), None).unwrap_err().to_string();
-        assert!(message.contains("camera cam1 has 2 frames but camera cam0 has 3"), "{message}");
+        assert!(
+            message.contains("camera cam1 has 2 frames but camera cam0 has 3"),
+            "{message}"
+        );
 
         let empty = tempfile::tempdir().unwrap();
-        assert!(open_recording(empty.path(), None).unwrap_err().to_string().contains("no camera sub-folders"));
+        assert!(
+            open_recording(empty.path(), None)
+                .unwrap_err()
+                .to_string()
+                .contains("no camera sub-folders")
+        );
 
         let bad_fps = tempfile::tempdir().unwrap();
         make(bad_fps.path(), &[("cam0", 1)]);
         std::fs::write(bad_fps.path().join("recording.json"), "{\"fps\": -3}").unwrap();
-        assert!(open_recording(bad_fps.path(), None).unwrap_err().to_string().contains("fps"));
+        assert!(
+            open_recording(bad_fps.path(), None)
+                .unwrap_err()
+                .to_string()
+                .contains("fps")
+        );
 
         let truncated = dir.path().join("cam0").join(frame_file_name(1));
         let bytes = std::fs::read(&truncated).unwrap();
         std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
         let message = read_frame(&truncated, None).unwrap_err().to_string();
-        assert!(message.contains("000001.png") && message.contains("not a readable PNG"), "{message}");
+        assert!(
+            message.contains("000001.png") && message.contains("not a readable PNG"),
+            "{message}"
+        );
     }
 }

@@ -1,0 +1,504 @@
+//! The C3D reader against the eight real files in `../shared/data/c3d`, compared with numbers
+//! extracted by ezc3d 1.7.2 (`scripts/reference/c3d_reference.py`, stored in
+//! `tests/data/c3d/*.json`).
+
+use std::path::PathBuf;
+
+use serde::Deserialize;
+use teachcam::c3d::{self, PointData};
+use teachcam::geometry::FrameIndex;
+
+/// The shared data folder, or `None` (test skipped) when it is absent outside CI.
+#[expect(clippy::print_stderr, reason = "a skipped test says why")]
+fn data_dir() -> Option<PathBuf> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/c3d");
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "CI is set but the test data folder {} is missing",
+        dir.display()
+    );
+    eprintln!("skipped: test data folder {} is missing", dir.display());
+    None
+}
+
+/// The fourth word of a point, decoded by the reference script from the raw bytes.
+#[derive(Debug, Deserialize)]
+struct Word {
+    residual: f64,
+    camera_mask: u8,
+}
+
+#[derive(Debug, Deserialize)]
+struct Reference {
+    file: String,
+    processor: u8,
+    labels: Vec<String>,
+    rate_hz: f64,
+    units: String,
+    frames: usize,
+    header_first_frame: usize,
+    middle_frame: usize,
+    first_frame: Vec<Option<[f64; 3]>>,
+    middle: Vec<Option<[f64; 3]>>,
+    last: Vec<Option<[f64; 3]>>,
+    first_words: Vec<Option<Word>>,
+    middle_words: Vec<Option<Word>>,
+    invalid_per_marker: Vec<usize>,
+    valid_sum_per_marker: Vec<[f64; 3]>,
+}
+
+fn reference(stem: &str) -> Reference {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/c3d")
+        .join(format!("{stem}.json"));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Stored values are 32-bit floats or 16-bit integers times a 32-bit scale: two readers agree
+/// to a few float32 steps of the value.
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 4.0 * f64::from(f32::EPSILON) * a.abs().max(b.abs()).max(1.0)
+}
+
+fn check_frame(points: &PointData, frame: usize, expected: &[Option<[f64; 3]>], file: &str) {
+    assert_eq!(expected.len(), points.marker_count(), "{file}");
+    for (marker, want) in expected.iter().enumerate() {
+        let got = points.sample(FrameIndex(frame), marker);
+        match (got, want) {
+            (None, None) => {}
+            (Some(s), Some(w)) => {
+                let g = [s.position.x, s.position.y, s.position.z];
+                for axis in 0..3 {
+                    assert!(
+                        close(g[axis], w[axis]),
+                        "{file} frame {frame} marker {marker} axis {axis}: {} vs ezc3d {}",
+                        g[axis],
+                        w[axis]
+                    );
+                }
+            }
+            _ => panic!("{file} frame {frame} marker {marker}: validity {got:?} vs ezc3d {want:?}"),
+        }
+    }
+}
+
+/// Residual and camera mask where the word is valid; a negative word is a gap. A valid word
+/// with non-finite coordinates is a gap too (ezc3d agrees: `check_frame`).
+fn check_words(points: &PointData, frame: usize, expected: &[Option<Word>], file: &str) {
+    for (marker, want) in expected.iter().enumerate() {
+        let got = points.sample(FrameIndex(frame), marker);
+        match (got, want) {
+            (Some(g), Some(w)) => {
+                assert!(
+                    close(g.residual, w.residual) && g.camera_mask == w.camera_mask,
+                    "{file} frame {frame} marker {marker}: {g:?} vs {w:?}"
+                );
+            }
+            (Some(g), None) => panic!("{file} frame {frame} marker {marker}: {g:?} vs a gap"),
+            (None, _) => {}
+        }
+    }
+}
+
+fn check_file(stem: &str) {
+    let Some(dir) = data_dir() else { return };
+    let want = reference(stem);
+    let file = dir.join(&want.file);
+    let c3d = c3d::read_file(&file).unwrap_or_else(|e| panic!("{e}"));
+    let points = &c3d.points;
+    let processor = match c3d.processor {
+        c3d::Processor::Intel => 1,
+        c3d::Processor::Dec => 2,
+        c3d::Processor::Mips => 3,
+    };
+    assert_eq!(processor, want.processor, "{stem} processor");
+    assert_eq!(points.labels, want.labels, "{stem} labels");
+    assert_eq!(points.rate_hz, want.rate_hz, "{stem} rate");
+    assert_eq!(points.units, want.units, "{stem} units");
+    assert_eq!(points.frame_count(), want.frames, "{stem} frames");
+    // ezc3d reports the header's first frame 0-based (and clamps 0 to 0).
+    let first = usize::from(c3d.header.first_frame).saturating_sub(1);
+    assert_eq!(first, want.header_first_frame, "{stem} first frame");
+    check_frame(points, 0, &want.first_frame, stem);
+    check_frame(points, want.middle_frame, &want.middle, stem);
+    check_frame(points, want.frames - 1, &want.last, stem);
+    check_words(points, 0, &want.first_words, stem);
+    check_words(points, want.middle_frame, &want.middle_words, stem);
+    for marker in 0..points.marker_count() {
+        let mut invalid = 0;
+        let mut sum = [0.0; 3];
+        for frame in 0..points.frame_count() {
+            match points.sample(FrameIndex(frame), marker) {
+                Some(s) => {
+                    sum[0] += s.position.x;
+                    sum[1] += s.position.y;
+                    sum[2] += s.position.z;
+                }
+                None => invalid += 1,
+            }
+        }
+        assert_eq!(
+            invalid, want.invalid_per_marker[marker],
+            "{stem} marker {marker} gaps"
+        );
+        for (axis, (&got, &w)) in sum
+            .iter()
+            .zip(&want.valid_sum_per_marker[marker])
+            .enumerate()
+        {
+            // Summation order differs (numpy pairwise vs sequential): relative 1e-9 is far
+            // above that rounding and far below any single wrong sample.
+            assert!(
+                (got - w).abs() <= 1e-9 * w.abs().max(1.0) * points.frame_count() as f64,
+                "{stem} marker {marker} axis {axis} sum {got} vs ezc3d {w}"
+            );
+        }
+    }
+}
+
+#[test]
+fn c3dorg_sample01_integer_storage() {
+    check_file("c3dorg_sample01_Eb015pi");
+}
+
+#[test]
+fn ezc3d_optotrak_header_frame_count_disagrees() {
+    check_file("ezc3d_Optotrak");
+}
+
+#[test]
+fn ezc3d_qualisys() {
+    check_file("ezc3d_Qualisys");
+}
+
+#[test]
+fn ezc3d_vicon() {
+    check_file("ezc3d_Vicon");
+}
+
+#[test]
+fn ktk_basket_sprint_optitrack() {
+    check_file("ktk_basket_sprint_optitrack");
+}
+
+#[test]
+fn ktk_racing_probing_acromion() {
+    check_file("ktk_racing_probing_acromion_R");
+}
+
+#[test]
+fn ktk_racing_probing_olecrane() {
+    check_file("ktk_racing_probing_olecrane_R");
+}
+
+#[test]
+fn ktk_racing_static_all_probe_samples_invalid() {
+    check_file("ktk_racing_static");
+}
+
+/// NDI's export declares 1149 frames (header and `POINT:FRAMES`) and holds 29 whole frames:
+/// the reader keeps the claim beside what it read.
+#[test]
+fn optotrak_declared_frames_kept() {
+    let Some(dir) = data_dir() else { return };
+    let c3d = c3d::read_file(&dir.join("ezc3d_Optotrak.c3d")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(c3d.declared_frames, 1149);
+    assert_eq!(c3d.points.frame_count(), 29);
+}
+
+fn read_shared(name: &str) -> Option<c3d::C3d> {
+    let dir = data_dir()?;
+    Some(c3d::read_file(&dir.join(name)).unwrap_or_else(|e| panic!("{e}")))
+}
+
+/// Every sample of `b` equals `a`'s within `tolerance` (file units), gaps in the same places.
+fn assert_same_points(a: &PointData, b: &PointData, tolerance: f64, what: &str) {
+    assert_eq!(a.labels, b.labels, "{what}: labels");
+    assert_eq!(a.units, b.units, "{what}: units");
+    assert_eq!(a.rate_hz as f32, b.rate_hz as f32, "{what}: rate");
+    assert_eq!(a.frame_count(), b.frame_count(), "{what}: frames");
+    for frame in 0..a.frame_count() {
+        for marker in 0..a.marker_count() {
+            let (x, y) = (
+                a.sample(FrameIndex(frame), marker),
+                b.sample(FrameIndex(frame), marker),
+            );
+            match (x, y) {
+                (None, None) => {}
+                (Some(x), Some(y)) => {
+                    let d = (x.position - y.position).amax();
+                    assert!(
+                        d <= tolerance,
+                        "{what}: frame {frame} marker {marker}: {x:?} vs {y:?}"
+                    );
+                    assert_eq!(x.camera_mask, y.camera_mask, "{what}: frame {frame}");
+                }
+                _ => panic!("{what}: frame {frame} marker {marker}: {x:?} vs {y:?}"),
+            }
+        }
+    }
+}
+
+/// Vicon's float file written back with its own residual step reads back identically:
+/// coordinates, gaps, residuals and camera masks.
+#[test]
+fn vicon_round_trip_is_identical() {
+    let Some(original) = read_shared("ezc3d_Vicon.c3d") else {
+        return;
+    };
+    let step = original.header.scale.abs().into();
+    let bytes = c3d::to_bytes(&original.points, step).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(bytes.len() % c3d::BLOCK_BYTES, 0, "whole blocks");
+    let back = c3d::read(&bytes).unwrap_or_else(|e| panic!("{e}"));
+    assert_same_points(&original.points, &back.points, 0.0, "vicon");
+    for frame in 0..original.points.frame_count() {
+        let (a, b) = (
+            original.points.frame(FrameIndex(frame)),
+            back.points.frame(FrameIndex(frame)),
+        );
+        assert_eq!(a, b, "frame {frame}");
+    }
+}
+
+/// An integer-storage file (c3d.org Sample01) written as floats: coordinates within a float32
+/// step of the scaled integers (|x| < 3000 mm: 2.4e-4 mm).
+#[test]
+fn integer_file_round_trip_through_float_storage() {
+    let Some(original) = read_shared("c3dorg_sample01_Eb015pi.c3d") else {
+        return;
+    };
+    let bytes = c3d::to_bytes(&original.points, 0.01).unwrap_or_else(|e| panic!("{e}"));
+    let back = c3d::read(&bytes).unwrap_or_else(|e| panic!("{e}"));
+    assert_same_points(&original.points, &back.points, 2.5e-4, "sample01");
+}
+
+/// A small deterministic scene: three markers over five frames with a gap, residuals and masks.
+fn small_scene() -> PointData {
+    let frames: Vec<Vec<Option<c3d::PointSample>>> = (0..5)
+        .map(|f| {
+            (0..3)
+                .map(|m| {
+                    (f != 2 || m != 1).then(|| c3d::PointSample {
+                        position: teachcam::geometry::Point3::new(
+                            100.0 * m as f64 + 0.5 * f as f64,
+                            -20.25 * f as f64,
+                            1000.0 + m as f64,
+                        ),
+                        residual: 0.1 * (m + f) as f64,
+                        camera_mask: 0b101 + m as u8,
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let labels = ["tip", "Probe2", "a_longer_label"]
+        .map(String::from)
+        .to_vec();
+    PointData::new(labels, 120.0, "mm".into(), &frames).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The writer's bytes for [`small_scene`] are the stored golden file, which ezc3d 1.7.2 reads
+/// (`scripts/reference/c3d_written_check.py` → `teachcam_written.json`) as the scene: labels,
+/// rate, units, coordinates and gaps. Regenerate with `TEACHCAM_BLESS=1` after a deliberate
+/// format change, then rerun the script.
+#[test]
+fn written_file_matches_golden_and_ezc3d_reads_it() {
+    let scene = small_scene();
+    let bytes = c3d::to_bytes(&scene, 0.01).unwrap_or_else(|e| panic!("{e}"));
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/c3d");
+    let golden = dir.join("teachcam_written.c3d");
+    if std::env::var_os("TEACHCAM_BLESS").is_some() {
+        std::fs::write(&golden, &bytes).unwrap_or_else(|e| panic!("{e}"));
+    }
+    let stored = std::fs::read(&golden).unwrap_or_else(|e| panic!("{}: {e}", golden.display()));
+    assert!(
+        stored == bytes,
+        "writer output differs from {}",
+        golden.display()
+    );
+
+    #[derive(Deserialize)]
+    struct Ezc3d {
+        labels: Vec<String>,
+        rate_hz: f64,
+        units: String,
+        frames: usize,
+        points: Vec<Vec<Option<[f64; 3]>>>,
+    }
+    let json = dir.join("teachcam_written.json");
+    let text = std::fs::read_to_string(&json).unwrap_or_else(|e| panic!("{}: {e}", json.display()));
+    let seen: Ezc3d = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(seen.labels, scene.labels);
+    assert_eq!(seen.rate_hz, scene.rate_hz);
+    assert_eq!(seen.units, scene.units);
+    assert_eq!(seen.frames, scene.frame_count());
+    for (frame, row) in seen.points.iter().enumerate() {
+        for (marker, p) in row.iter().enumerate() {
+            let ours = scene.sample(FrameIndex(frame), marker).map(|s| s.position);
+            match (ours, p) {
+                (None, None) => {}
+                (Some(o), Some(p)) => {
+                    // Written as float32: within half a float32 step of 1000 mm.
+                    let d = (o - teachcam::geometry::Point3::from(*p)).amax();
+                    assert!(d <= 6.2e-5, "frame {frame} marker {marker}: {o:?} vs {p:?}");
+                }
+                _ => panic!("frame {frame} marker {marker}: {ours:?} vs ezc3d {p:?}"),
+            }
+        }
+    }
+    let back = c3d::read(&bytes).unwrap_or_else(|e| panic!("{e}"));
+    assert_same_points(&scene, &back.points, 6.2e-5, "scene");
+    for frame in 0..5 {
+        for marker in 0..3 {
+            if let (Some(a), Some(b)) = (
+                scene.sample(FrameIndex(frame), marker),
+                back.points.sample(FrameIndex(frame), marker),
+            ) {
+                // Residuals are stored in steps of 0.01 mm.
+                assert!((a.residual - b.residual).abs() <= 0.005 + 1e-9);
+            }
+        }
+    }
+}
+
+fn golden_bytes() -> Vec<u8> {
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/c3d/teachcam_written.c3d");
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn error_of(bytes: &[u8]) -> String {
+    match c3d::read(bytes) {
+        Ok(_) => panic!("accepted a bad file"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn truncated_files_are_refused_naming_what_is_missing() {
+    let bytes = golden_bytes();
+    let data_start = (usize::from(bytes[16]) - 1) * c3d::BLOCK_BYTES;
+    let message = error_of(&bytes[..data_start + 100]);
+    assert!(
+        message.contains("truncated") && message.contains("point data"),
+        "{message}"
+    );
+    let message = error_of(&bytes[..300]);
+    assert!(
+        message.contains("truncated") && message.contains("header"),
+        "{message}"
+    );
+    let message = error_of(&bytes[..515]);
+    assert!(
+        message.contains("truncated") && message.contains("parameter"),
+        "{message}"
+    );
+    let message = error_of(&bytes[..600]);
+    assert!(message.contains("truncated"), "{message}");
+}
+
+#[test]
+fn wrong_parameter_sections_are_refused() {
+    let good = golden_bytes();
+    let mut bytes = good.clone();
+    bytes[512 + 3] = 99;
+    assert!(error_of(&bytes).contains("processor byte is 99"));
+
+    let mut bytes = good.clone();
+    bytes[1] = 0x51;
+    assert!(error_of(&bytes).contains("not a C3D file"));
+
+    let mut bytes = good.clone();
+    bytes[0] = 9; // the parameter section would start past the end
+    assert!(error_of(&bytes).contains("truncated"));
+
+    // The first parameter record (POINT:USED) follows the three group records; give it type 3.
+    let section = &good[512..1024];
+    let at = section
+        .windows(4)
+        .position(|w| w == b"USED")
+        .unwrap_or_else(|| panic!("no USED record"));
+    let mut bytes = good.clone();
+    bytes[512 + at + 4 + 2] = 3;
+    let message = error_of(&bytes);
+    assert!(
+        message.contains("\"USED\"") && message.contains("unknown type 3"),
+        "{message}"
+    );
+
+    // A parameter pointing at a group that does not exist.
+    let mut bytes = good.clone();
+    bytes[512 + at - 1] = 9;
+    let message = error_of(&bytes);
+    assert!(
+        message.contains("group 9, which does not exist"),
+        "{message}"
+    );
+
+    // A negative scale's magnitude is fine; a zero scale is not.
+    let mut scene = small_scene();
+    scene.rate_hz = 0.0;
+    assert!(c3d::to_bytes(&scene, 0.01).is_err());
+}
+
+#[test]
+fn missing_labels_are_named() {
+    let scene = small_scene();
+    assert_eq!(
+        scene.marker_indices(&["a_longer_label", "tip"]).ok(),
+        Some(vec![2, 0])
+    );
+    let message = match scene.marker_indices(&["tip", "Probe7"]) {
+        Ok(_) => panic!("found a label that does not exist"),
+        Err(e) => e.to_string(),
+    };
+    assert_eq!(
+        message,
+        "no marker labelled \"Probe7\" (the file has tip, Probe2, a_longer_label)"
+    );
+}
+
+mod fuzz {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+
+        /// Any byte changes and any truncation: an answer or an error, never a panic (and no
+        /// allocation beyond what the file holds: counts are checked against its length).
+        #[test]
+        fn mutated_files_never_panic(
+            edits in proptest::collection::vec((0usize..4096, any::<u8>()), 1..12),
+            cut in 0usize..4096,
+        ) {
+            let mut bytes = golden_bytes();
+            for (at, value) in edits {
+                let at = at % bytes.len();
+                bytes[at] = value;
+            }
+            let _ = c3d::read(&bytes);
+            let cut = cut % (bytes.len() + 1);
+            let _ = c3d::read(&bytes[..cut]);
+        }
+
+        /// Mutations focused on the header and parameter section of a real file.
+        #[test]
+        fn mutated_real_header_never_panics(
+            edits in proptest::collection::vec((0usize..2048, any::<u8>()), 1..6),
+        ) {
+            let Some(dir) = data_dir() else { return Ok(()) };
+            let mut bytes = std::fs::read(dir.join("ezc3d_Optotrak.c3d")).unwrap_or_default();
+            prop_assume!(bytes.len() > 2048);
+            for (at, value) in edits {
+                bytes[at] = value;
+            }
+            let _ = c3d::read(&bytes);
+        }
+    }
+}
