@@ -1,3 +1,4 @@
 //! One module per subcommand.
 
+pub mod c3d;
 pub mod demo;

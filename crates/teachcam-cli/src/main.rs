@@ -23,6 +23,8 @@ struct Cli {
 enum Command {
     /// Simulate the paper's setup and run the whole pipeline on it.
     Demo(cmd::demo::Args),
+    /// Inspect C3D motion-capture files (`teachcam c3d info FILE.c3d`).
+    C3d(cmd::c3d::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -42,12 +44,16 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
+        Command::C3d(args) => cmd::c3d::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
-            if error.chain().any(|cause| cause.is::<DataRejected>()) {
+            // `.context(DataRejected)` is found by downcasting, not in `chain()`.
+            if error.downcast_ref::<DataRejected>().is_some()
+                || error.chain().any(|cause| cause.is::<DataRejected>())
+            {
                 ExitCode::from(1)
             } else {
                 ExitCode::from(2)

@@ -51,23 +51,23 @@ const KEY: u8 = 0x50;
 #[derive(Debug, thiserror::Error)]
 pub enum C3dError {
     /// The file could not be read.
-    #[error("cannot read {}: {source}", path.display())]
+    #[error("cannot read {}: {cause}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The system's error.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The output file could not be written.
     #[error(transparent)]
     Write(crate::io::FileError),
     /// An error inside a named file.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {cause}", path.display())]
     InFile {
         /// The file.
         path: PathBuf,
         /// What is wrong with it.
-        source: Box<C3dError>,
+        cause: Box<C3dError>,
     },
     /// The second byte is not the C3D key 0x50.
     #[error("not a C3D file: byte 2 is {found:#04x}, not 0x50")]
@@ -137,7 +137,7 @@ impl C3dError {
     fn in_file(self, path: &Path) -> Self {
         Self::InFile {
             path: path.to_path_buf(),
-            source: Box::new(self),
+            cause: Box::new(self),
         }
     }
 }
@@ -308,9 +308,9 @@ pub struct C3d {
 /// [`C3dError::Io`] when the file cannot be read, otherwise the errors of [`read`] wrapped
 /// with the path.
 pub fn read_file(path: &Path) -> Result<C3d, C3dError> {
-    let bytes = std::fs::read(path).map_err(|source| C3dError::Io {
+    let bytes = std::fs::read(path).map_err(|cause| C3dError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     })?;
     read(&bytes).map_err(|e| e.in_file(path))
 }

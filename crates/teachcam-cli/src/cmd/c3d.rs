@@ -1,0 +1,110 @@
+//! `teachcam c3d`: inspect C3D motion-capture files.
+
+use std::path::PathBuf;
+
+use anyhow::Context as _;
+use serde::Serialize;
+use teachcam::c3d::{self, Processor};
+use teachcam::geometry::FrameIndex;
+
+use crate::DataRejected;
+
+/// Inspect C3D files written by Vicon, Qualisys, OptiTrack, NDI and others.
+///
+/// Example: `teachcam c3d info walk.c3d`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    pub command: C3dCommand,
+}
+
+/// What to do with the C3D file.
+#[derive(Debug, clap::Subcommand)]
+pub enum C3dCommand {
+    /// Print JSON describing the file: labels, rate, frames, units and the first frame.
+    Info(InfoArgs),
+}
+
+/// Print a JSON summary of a C3D file on stdout: `labels`, `rate_hz`, `frames`, `units`,
+/// `first_frame` (one `[x, y, z]` per label in the file's units, `null` where the sample is
+/// invalid), and how the file stores its data.
+///
+/// Example: `teachcam c3d info trial.c3d > trial.json`
+#[derive(Debug, clap::Args)]
+pub struct InfoArgs {
+    /// The C3D file.
+    pub file: PathBuf,
+}
+
+/// What `c3d info` prints.
+#[derive(Debug, Serialize)]
+struct Info {
+    file: String,
+    labels: Vec<String>,
+    rate_hz: f64,
+    frames: usize,
+    /// What the header and parameters declare (more than `frames` when the file holds fewer).
+    frames_declared: usize,
+    /// Number of the first frame as the file counts.
+    first_frame_number: usize,
+    units: String,
+    processor: &'static str,
+    storage: &'static str,
+    scale: f64,
+    first_frame: Vec<Option<[f64; 3]>>,
+    /// Frames without a valid sample, per label.
+    gaps: Vec<usize>,
+}
+
+/// Run `teachcam c3d ...`.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    match &args.command {
+        C3dCommand::Info(info) => run_info(info),
+    }
+}
+
+fn run_info(args: &InfoArgs) -> anyhow::Result<()> {
+    let file = c3d::read_file(&args.file)
+        .map_err(anyhow::Error::from)
+        .context(DataRejected)?;
+    let points = &file.points;
+    let scale = file
+        .parameters
+        .get("POINT", "SCALE")
+        .and_then(c3d::Parameter::first_number)
+        .unwrap_or(f64::from(file.header.scale));
+    let first_frame = (0..points.marker_count())
+        .map(|m| {
+            points
+                .sample(FrameIndex(0), m)
+                .map(|s| [s.position.x, s.position.y, s.position.z])
+        })
+        .collect();
+    let gaps = (0..points.marker_count())
+        .map(|m| {
+            (0..points.frame_count())
+                .filter(|&f| points.sample(FrameIndex(f), m).is_none())
+                .count()
+        })
+        .collect();
+    let info = Info {
+        file: args.file.display().to_string(),
+        labels: points.labels.clone(),
+        rate_hz: points.rate_hz,
+        frames: points.frame_count(),
+        frames_declared: file.declared_frames,
+        first_frame_number: points.first_frame_number,
+        units: points.units.clone(),
+        processor: match file.processor {
+            Processor::Intel => "intel",
+            Processor::Dec => "dec",
+            Processor::Mips => "mips",
+        },
+        storage: if scale < 0.0 { "float" } else { "integer" },
+        scale,
+        first_frame,
+        gaps,
+    };
+    println!("{}", serde_json::to_string_pretty(&info)?);
+    Ok(())
+}
