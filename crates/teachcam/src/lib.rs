@@ -23,7 +23,8 @@
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
 //! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
-//! - [`c3d`]: C3D motion-capture files in and out, and marker exports of other trackers.
+//! - [`c3d`]: C3D motion-capture files in and out.
+//! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
 
 pub mod c3d;
 pub mod camera;
@@ -31,3 +32,4 @@ pub mod geometry;
 pub mod io;
 pub mod tool;
 pub mod trajectory;
+pub mod vendor;
