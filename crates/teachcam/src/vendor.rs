@@ -283,7 +283,7 @@ pub fn motive_rigid_body_csv(trajectory: &Trajectory, name: &str) -> String {
          Length Units,Millimeters,Coordinate Space,Global"
     );
     out.push('\n');
-    let repeat = |cell: &str| vec![cell; 8].join(",");
+    let repeat = |cell: &str| [cell; 8].join(",");
     let _ = writeln!(out, ",Type,{}", repeat("Rigid Body"));
     let _ = writeln!(out, ",Name,{}", repeat(name));
     let _ = writeln!(out, ",ID,{}", repeat("1"));
