@@ -2,3 +2,4 @@
 
 pub mod c3d;
 pub mod demo;
+pub mod simulate;

@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod progress;
 
 /// Program an industrial robot by demonstration: marker tracking with calibrated cameras,
 /// trajectory smoothing, robot checks and robot programs (ABB RAPID, KUKA KRL, UR URScript).
@@ -23,6 +24,8 @@ struct Cli {
 enum Command {
     /// Simulate the paper's setup and run the whole pipeline on it.
     Demo(cmd::demo::Args),
+    /// Write a simulated recording with its ground truth.
+    Simulate(cmd::simulate::Args),
     /// Inspect C3D motion-capture files (`teachcam c3d info FILE.c3d`).
     C3d(cmd::c3d::Args),
 }
@@ -44,6 +47,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
+        Command::Simulate(args) => cmd::simulate::run(&args),
         Command::C3d(args) => cmd::c3d::run(&args),
     };
     match result {

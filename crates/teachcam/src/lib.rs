@@ -23,13 +23,25 @@
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
 //! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
+//! - [`correspond`]: which blobs in different cameras show the same marker (§II-A).
+//! - [`triangulate`]: 3-D points from corresponding blobs.
+//! - [`identify`]: which point is which marker, by distance-matrix voting (§II-B).
+//! - [`register`]: the tool's pose by SVD registration (§II-C).
+//! - [`track`]: the stages above per frame, frames in parallel.
+//! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
 //! - [`c3d`]: C3D motion-capture files in and out.
 //! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
 
 pub mod c3d;
 pub mod camera;
+pub mod correspond;
 pub mod geometry;
+pub mod identify;
 pub mod io;
+pub mod register;
+pub mod sim;
 pub mod tool;
+pub mod track;
 pub mod trajectory;
+pub mod triangulate;
 pub mod vendor;

@@ -2,6 +2,11 @@
 //! reference values, project ∘ unproject round trips over the whole image, the projection
 //! Jacobian against finite differences, and epipolar consistency between cameras.
 
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test fails loudly on a broken fixture"
+)]
+
 use nalgebra::Vector3;
 use serde::Deserialize;
 use teachcam::camera::{
