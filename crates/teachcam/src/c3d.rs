@@ -30,12 +30,17 @@
 
 mod bytes;
 mod parameters;
+mod rigid;
 mod write;
 
 use std::path::{Path, PathBuf};
 
 pub use bytes::Processor;
 pub use parameters::{Group, Parameter, ParameterData, Parameters};
+pub use rigid::{
+    MarkerSelection, ToolFromData, ToolFromDataConfig, TrackMarkersConfig, tool_from_data,
+    track_markers,
+};
 pub use write::{to_bytes, write_file};
 
 use crate::geometry::{FrameIndex, Point3};
