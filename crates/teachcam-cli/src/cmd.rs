@@ -2,4 +2,5 @@
 
 pub mod c3d;
 pub mod demo;
+pub mod import;
 pub mod simulate;

@@ -28,6 +28,8 @@ enum Command {
     Simulate(cmd::simulate::Args),
     /// Inspect C3D motion-capture files (`teachcam c3d info FILE.c3d`).
     C3d(cmd::c3d::Args),
+    /// Another tracker's markers (C3D, Motive CSV, Qualisys TSV) to a tool trajectory.
+    Import(cmd::import::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -49,6 +51,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
         Command::C3d(args) => cmd::c3d::run(&args),
+        Command::Import(args) => cmd::import::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
 //! `teachcam c3d`: inspect C3D motion-capture files.
 
+use std::io::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context as _;
@@ -23,7 +24,30 @@ pub struct Args {
 pub enum C3dCommand {
     /// Print JSON describing the file: labels, rate, frames, units and the first frame.
     Info(InfoArgs),
+    /// Write a trajectory's tool markers and tip as a C3D file (for Mokka, ezc3d, Vicon).
+    Export(ExportArgs),
 }
+
+/// Write the tool's markers (`<tool>:M0`, ...) and tip (`<tool>:tip`) in every frame of a
+/// trajectory as a C3D file (Intel, float storage, millimetres; residual = the registration
+/// RMS in steps of 0.001 mm). Frames without a pose are gaps.
+///
+/// Example: `teachcam c3d export smooth.csv --tool brush.json -o brush.c3d`
+#[derive(Debug, clap::Args)]
+pub struct ExportArgs {
+    /// The trajectory CSV.
+    pub trajectory: PathBuf,
+    /// The tool (`tool.json`) whose markers to place.
+    #[arg(long)]
+    pub tool: PathBuf,
+    /// The C3D file to write.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Residual step of exported files, millimetres: registration residuals are 0.01–1 mm, and a
+/// byte of 0.001 mm steps holds up to 0.255 mm (larger residuals are stored as 0.255).
+const EXPORT_RESIDUAL_STEP_MM: f64 = 0.001;
 
 /// Print a JSON summary of a C3D file on stdout: `labels`, `rate_hz`, `frames`, `units`,
 /// `first_frame` (one `[x, y, z]` per label in the file's units, `null` where the sample is
@@ -60,7 +84,20 @@ struct Info {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     match &args.command {
         C3dCommand::Info(info) => run_info(info),
+        C3dCommand::Export(export) => run_export(export),
     }
+}
+
+fn run_export(args: &ExportArgs) -> anyhow::Result<()> {
+    let trajectory =
+        teachcam::io::trajectory::read_trajectory(&args.trajectory).context(DataRejected)?;
+    let tool = teachcam::io::tool::read_tool(&args.tool).context(DataRejected)?;
+    let points = c3d::points_from_trajectory(&trajectory, &tool)
+        .map_err(anyhow::Error::from)
+        .with_context(|| args.trajectory.display().to_string())
+        .context(DataRejected)?;
+    c3d::write_file(&args.output, &points, EXPORT_RESIDUAL_STEP_MM)?;
+    Ok(())
 }
 
 fn run_info(args: &InfoArgs) -> anyhow::Result<()> {
@@ -105,6 +142,11 @@ fn run_info(args: &InfoArgs) -> anyhow::Result<()> {
         first_frame,
         gaps,
     };
-    println!("{}", serde_json::to_string_pretty(&info)?);
-    Ok(())
+    let text = serde_json::to_string_pretty(&info)?;
+    let mut stdout = std::io::stdout().lock();
+    match writeln!(stdout, "{text}") {
+        // A reader that stopped early (`| head`) is not an error.
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
+    }
 }

@@ -297,3 +297,45 @@ fn pose(
         rms_mm: registration.rms_mm,
     })
 }
+
+/// The tool's markers and tip in every frame of a trajectory, as marker data for a C3D file:
+/// labels `<tool>:M0`, `<tool>:M1`, ... and `<tool>:tip`, millimetres, the registration
+/// residual as each sample's residual; a frame without a pose is a gap for every marker.
+///
+/// # Errors
+/// [`C3dError::Unwritable`] when the trajectory has no frame rate (fewer than two samples or
+/// time not increasing).
+pub fn points_from_trajectory(trajectory: &Trajectory, tool: &Tool) -> Result<PointData, C3dError> {
+    let rate_hz = trajectory
+        .sample_rate_hz()
+        .ok_or_else(|| C3dError::Unwritable {
+            reason: "the trajectory has no frame rate (fewer than two samples?)".into(),
+        })?;
+    let mut labels: Vec<String> = (0..tool.markers_in_tool.len())
+        .map(|k| format!("{}:M{k}", tool.name))
+        .collect();
+    labels.push(format!("{}:tip", tool.name));
+    let frames: Vec<Vec<Option<super::PointSample>>> = trajectory
+        .samples
+        .iter()
+        .map(|s| {
+            let sample = |position: Point3, residual: f64| {
+                s.pose.map(|_| super::PointSample {
+                    position,
+                    residual,
+                    camera_mask: 0,
+                })
+            };
+            match &s.pose {
+                Some(p) => tool
+                    .markers_in_tool
+                    .iter()
+                    .map(|m| sample(p.world_from_tool * m, p.rms_mm))
+                    .chain([sample(p.tip_in_world, p.rms_mm)])
+                    .collect(),
+                None => vec![None; labels.len()],
+            }
+        })
+        .collect();
+    PointData::new(labels, rate_hz, "mm".into(), &frames)
+}
