@@ -4,3 +4,4 @@ pub mod c3d;
 pub mod demo;
 pub mod import;
 pub mod simulate;
+pub mod uncertainty;

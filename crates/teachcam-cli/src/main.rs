@@ -26,6 +26,8 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Write a simulated recording with its ground truth.
     Simulate(cmd::simulate::Args),
+    /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
+    Uncertainty(cmd::uncertainty::Args),
     /// Inspect C3D motion-capture files (`teachcam c3d info FILE.c3d`).
     C3d(cmd::c3d::Args),
     /// Another tracker's markers (C3D, Motive CSV, Qualisys TSV) to a tool trajectory.
@@ -33,23 +35,36 @@ enum Command {
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
-/// errors (exit status 2).
+/// errors (exit status 2). Its message is the wrapped error's, on one line.
 #[derive(Debug)]
-pub struct DataRejected;
+pub struct DataRejected(anyhow::Error);
 
 impl std::fmt::Display for DataRejected {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("input rejected")
+        write!(f, "{:#}", self.0)
     }
 }
 
 impl std::error::Error for DataRejected {}
+
+/// Marks a failure as the user's data being rejected (exit status 1).
+pub trait Rejected<T> {
+    /// The same result, its error marked as rejected data.
+    fn rejected(self) -> anyhow::Result<T>;
+}
+
+impl<T, E: Into<anyhow::Error>> Rejected<T> for Result<T, E> {
+    fn rejected(self) -> anyhow::Result<T> {
+        self.map_err(|e| anyhow::Error::new(DataRejected(e.into())))
+    }
+}
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
+        Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::C3d(args) => cmd::c3d::run(&args),
         Command::Import(args) => cmd::import::run(&args),
     };
@@ -57,9 +72,12 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
-            // `.context(DataRejected)` is found by downcasting, not in `chain()`.
+            // `.context(DataRejected)` is found by downcasting the error itself, not in
+            // `chain()`; an error wrapping `DataRejected` is found in the chain.
             if error.downcast_ref::<DataRejected>().is_some()
-                || error.chain().any(|cause| cause.is::<DataRejected>())
+                || error
+                    .chain()
+                    .any(|cause| cause.downcast_ref::<DataRejected>().is_some())
             {
                 ExitCode::from(1)
             } else {

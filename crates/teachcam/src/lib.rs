@@ -28,6 +28,7 @@
 //! - [`identify`]: which point is which marker, by distance-matrix voting (§II-B).
 //! - [`register`]: the tool's pose by SVD registration (§II-C).
 //! - [`track`]: the stages above per frame, frames in parallel.
+//! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
 //! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
 //! - [`c3d`]: C3D motion-capture files in and out.
 //! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
@@ -38,6 +39,7 @@ pub mod correspond;
 pub mod geometry;
 pub mod identify;
 pub mod io;
+pub mod metrology;
 pub mod register;
 pub mod sim;
 pub mod tool;
