@@ -72,12 +72,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
-            // `.context(DataRejected)` is found by downcasting the error itself, not in
-            // `chain()`; an error wrapping `DataRejected` is found in the chain.
-            if error.downcast_ref::<DataRejected>().is_some()
-                || error
-                    .chain()
-                    .any(|cause| cause.downcast_ref::<DataRejected>().is_some())
+            if error
+                .chain()
+                .any(|cause| cause.downcast_ref::<DataRejected>().is_some())
             {
                 ExitCode::from(1)
             } else {

@@ -8,7 +8,7 @@ use serde::Serialize;
 use teachcam::c3d::{self, Processor};
 use teachcam::geometry::FrameIndex;
 
-use crate::DataRejected;
+use crate::Rejected as _;
 
 /// Inspect C3D files written by Vicon, Qualisys, OptiTrack, NDI and others.
 ///
@@ -89,21 +89,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 }
 
 fn run_export(args: &ExportArgs) -> anyhow::Result<()> {
-    let trajectory =
-        teachcam::io::trajectory::read_trajectory(&args.trajectory).context(DataRejected)?;
-    let tool = teachcam::io::tool::read_tool(&args.tool).context(DataRejected)?;
+    let trajectory = teachcam::io::trajectory::read_trajectory(&args.trajectory).rejected()?;
+    let tool = teachcam::io::tool::read_tool(&args.tool).rejected()?;
     let points = c3d::points_from_trajectory(&trajectory, &tool)
         .map_err(anyhow::Error::from)
         .with_context(|| args.trajectory.display().to_string())
-        .context(DataRejected)?;
+        .rejected()?;
     c3d::write_file(&args.output, &points, EXPORT_RESIDUAL_STEP_MM)?;
     Ok(())
 }
 
 fn run_info(args: &InfoArgs) -> anyhow::Result<()> {
-    let file = c3d::read_file(&args.file)
-        .map_err(anyhow::Error::from)
-        .context(DataRejected)?;
+    let file = c3d::read_file(&args.file).rejected()?;
     let points = &file.points;
     let scale = file
         .parameters

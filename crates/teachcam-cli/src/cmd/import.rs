@@ -3,14 +3,14 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context as _, bail};
+use anyhow::bail;
 use teachcam::c3d::{self, MarkerSelection, PointData, ToolFromDataConfig, TrackMarkersConfig};
 use teachcam::identify::IdentifyConfig;
 use teachcam::io::tool::{read_tool, write_tool};
 use teachcam::io::trajectory::write_trajectory;
 use teachcam::vendor;
 
-use crate::DataRejected;
+use crate::{DataRejected, Rejected as _};
 
 /// Turn another tracker's markers (Vicon, Qualisys, OptiTrack, NDI) into the trajectory of a
 /// rigid tool: pick the tool's markers by label or by the distance-matrix identification of a
@@ -102,29 +102,28 @@ pub fn read_points(format: Format, file: &Path) -> anyhow::Result<PointData> {
         Format::Motive => vendor::read_motive_csv(file).map_err(anyhow::Error::from),
         Format::Qualisys => vendor::read_qualisys_tsv(file).map_err(anyhow::Error::from),
     };
-    points.context(DataRejected)
+    points.rejected()
 }
 
 /// Run `teachcam import`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let points = read_points(args.format, &args.file)?;
     let in_file = |e: c3d::C3dError| {
-        anyhow::Error::from(e)
-            .context(format!("{}", args.file.display()))
-            .context(DataRejected)
+        let named = anyhow::Error::from(e).context(args.file.display().to_string());
+        anyhow::Error::new(DataRejected(named))
     };
     let columns = points.marker_indices(&args.markers).map_err(in_file)?;
     let (tool, selection) = match (&args.tool, columns.is_empty()) {
         (None, true) => bail!("give --tool, --markers or both (see --help)"),
         (Some(path), true) => {
-            let tool = read_tool(path).context(DataRejected)?;
+            let tool = read_tool(path).rejected()?;
             let identify = IdentifyConfig {
                 distance_tolerance_mm: args.identify_tolerance_mm,
             };
             (tool, MarkerSelection::Identify(identify))
         }
         (Some(path), false) => {
-            let tool = read_tool(path).context(DataRejected)?;
+            let tool = read_tool(path).rejected()?;
             (tool, MarkerSelection::Labels(columns))
         }
         (None, false) => {
