@@ -709,3 +709,29 @@ fn vicon_box_by_labels_and_by_identification() {
     // Measured: 552 of 580 frames identify the same markers as the labels.
     assert!(same * 10 >= rms.len() * 9, "{same} of {}", rms.len());
 }
+
+/// More frames than a 16-bit header word holds: the writer stores the count in
+/// `TRIAL:ACTUAL_END_FIELD` (two words) and the reader takes it from there.
+#[test]
+fn more_than_65535_frames_round_trip() {
+    let frames: Vec<Vec<Option<c3d::PointSample>>> = (0..70_000)
+        .map(|f| {
+            vec![Some(c3d::PointSample {
+                position: teachcam::geometry::Point3::new(f as f64, 0.0, 1.0),
+                residual: 0.0,
+                camera_mask: 0,
+            })]
+        })
+        .collect();
+    let points = PointData::new(vec!["m".into()], 1000.0, "mm".into(), &frames)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let bytes = c3d::to_bytes(&points, 0.01).unwrap_or_else(|e| panic!("{e}"));
+    let back = c3d::read(&bytes).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(back.points.frame_count(), 70_000);
+    assert_eq!(back.declared_frames, 70_000);
+    let last = back
+        .points
+        .sample(FrameIndex(69_999), 0)
+        .map(|s| s.position.x);
+    assert_eq!(last, Some(69_999.0));
+}

@@ -26,6 +26,38 @@ pub enum C3dCommand {
     Info(InfoArgs),
     /// Write a trajectory's tool markers and tip as a C3D file (for Mokka, ezc3d, Vicon).
     Export(ExportArgs),
+    /// Build a `tool.json` from a rigid cluster of labelled markers over a stretch of frames.
+    Tool(ToolArgs),
+}
+
+/// Build a `tool.json` from labelled markers: their mean shape over `--frames` (every frame
+/// aligned onto the mean first, so a slowly moving cluster works too), in the tool frame with
+/// its origin at the first marker, x towards the second and the third in the xy-plane. Prints
+/// JSON with the frames used and each marker's RMS scatter about its mean, millimetres.
+///
+/// Example: `teachcam c3d tool static.c3d --markers Probe1,Probe2,Probe3,Probe4 -o probe.json`
+#[derive(Debug, clap::Args)]
+pub struct ToolArgs {
+    /// The C3D file.
+    pub file: PathBuf,
+    /// Labels of the tool's markers, comma-separated (at least 3; the first three set the frame).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub markers: Vec<String>,
+    /// Frames (0-based, `START..END`, END excluded) to average over.
+    #[arg(long, default_value = "0..", value_parser = crate::cmd::import::parse_frames)]
+    pub frames: std::ops::Range<usize>,
+    /// A marker whose mean position becomes the tool centre point (default: the origin).
+    #[arg(long)]
+    pub tip: Option<String>,
+    /// The tool's name (default: the file's stem).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Marker sphere diameter written to the tool, millimetres.
+    #[arg(long, default_value_t = c3d::ToolFromDataConfig::default().marker_diameter_mm)]
+    pub marker_diameter_mm: f64,
+    /// The tool file to write.
+    #[arg(short, long)]
+    pub output: PathBuf,
 }
 
 /// Write the tool's markers (`<tool>:M0`, ...) and tip (`<tool>:tip`) in every frame of a
@@ -85,6 +117,48 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     match &args.command {
         C3dCommand::Info(info) => run_info(info),
         C3dCommand::Export(export) => run_export(export),
+        C3dCommand::Tool(tool) => run_tool(tool),
+    }
+}
+
+fn run_tool(args: &ToolArgs) -> anyhow::Result<()> {
+    let points = c3d::read_file(&args.file).rejected()?.points;
+    let named = |e: c3d::C3dError| {
+        let e = anyhow::Error::from(e).context(args.file.display().to_string());
+        anyhow::Error::new(crate::DataRejected(e))
+    };
+    let columns = points.marker_indices(&args.markers).map_err(named)?;
+    let tip = match &args.tip {
+        Some(label) => Some(points.marker_indices(&[label]).map_err(named)?[0]),
+        None => None,
+    };
+    let config = c3d::ToolFromDataConfig {
+        name: args.name.clone().unwrap_or_else(|| {
+            args.file
+                .file_stem()
+                .map_or("tool".into(), |s| s.to_string_lossy().into_owned())
+        }),
+        marker_diameter_mm: args.marker_diameter_mm,
+    };
+    let built =
+        c3d::tool_from_data(&points, &columns, args.frames.clone(), tip, &config).map_err(named)?;
+    teachcam::io::tool::write_tool(&args.output, &built.tool)?;
+    let summary = serde_json::json!({
+        "tool": args.output.display().to_string(),
+        "frames_used": built.frames_used,
+        "markers": args.markers,
+        "marker_rms_mm": built.marker_rms_mm,
+    });
+    print_json(&summary)
+}
+
+/// Pretty JSON on stdout; a reader that stopped early (`| head`) is not an error.
+fn print_json<T: Serialize>(value: &T) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    let mut stdout = std::io::stdout().lock();
+    match writeln!(stdout, "{text}") {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
     }
 }
 
@@ -139,11 +213,5 @@ fn run_info(args: &InfoArgs) -> anyhow::Result<()> {
         first_frame,
         gaps,
     };
-    let text = serde_json::to_string_pretty(&info)?;
-    let mut stdout = std::io::stdout().lock();
-    match writeln!(stdout, "{text}") {
-        // A reader that stopped early (`| head`) is not an error.
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        other => Ok(other?),
-    }
+    print_json(&info)
 }
