@@ -59,6 +59,26 @@ def residual_words(raw, c, frame):
     return out
 
 
+def pyc3d_first_words(path):
+    """First-frame residual and camera mask as py-c3d 0.6.0 (a second independent reader)
+    reports them (it follows the User Guide: residual in the low byte, cameras in the high
+    byte; invalid = residual -1). None when py-c3d cannot read the file (the ktk_racing files:
+    empty ANALOG:SCALE)."""
+    try:
+        import c3d as pyc3d
+
+        with open(path, "rb") as handle:
+            reader = pyc3d.Reader(handle)
+            for _, points, _ in reader.read_frames():
+                return [
+                    None if p[3] < 0 else {"residual": float(p[3]), "camera_mask": int(p[4])}
+                    for p in points
+                ]
+    except Exception:  # noqa: BLE001 - any failure means "no second opinion"
+        return None
+    return None
+
+
 def main():
     OUT.mkdir(parents=True, exist_ok=True)
     for path in sorted(DATA.glob("*.c3d")):
@@ -92,6 +112,7 @@ def main():
             "last": frame_points(points, frames - 1),
             "first_words": residual_words(raw, c, 0),
             "middle_words": residual_words(raw, c, middle),
+            "pyc3d_first_words": pyc3d_first_words(path),
             "ezc3d_first_residuals": [float(r) for r in residuals[:, 0]],
             "invalid_per_marker": [int(frames - valid[m].sum()) for m in range(used)],
             "valid_sum_per_marker": [

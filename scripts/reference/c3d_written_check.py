@@ -30,5 +30,14 @@ out = {
         for f in range(pts.shape[2])
     ],
 }
+# py-c3d 0.6.0, a second reader, decodes the residual word per the User Guide (ezc3d swaps
+# its bytes): residual and camera mask of every sample, null for a gap.
+import c3d as pyc3d
+
+with open(DIR / "teachcam_written.c3d", "rb") as handle:
+    out["pyc3d_words"] = [
+        [None if p[3] < 0 else {"residual": float(p[3]), "camera_mask": int(p[4])} for p in points]
+        for _, points, _ in pyc3d.Reader(handle).read_frames()
+    ]
 (DIR / "teachcam_written.json").write_text(json.dumps(out, indent=1) + "\n")
 print(json.dumps(out)[:300])

@@ -46,6 +46,9 @@ struct Reference {
     last: Vec<Option<[f64; 3]>>,
     first_words: Vec<Option<Word>>,
     middle_words: Vec<Option<Word>>,
+    /// The same words as py-c3d 0.6.0 decodes them (it computes in float32); absent for the
+    /// files it cannot read.
+    pyc3d_first_words: Option<Vec<Option<Word>>>,
     invalid_per_marker: Vec<usize>,
     valid_sum_per_marker: Vec<[f64; 3]>,
 }
@@ -128,6 +131,9 @@ fn check_file(stem: &str) {
     check_frame(points, want.frames - 1, &want.last, stem);
     check_words(points, 0, &want.first_words, stem);
     check_words(points, want.middle_frame, &want.middle_words, stem);
+    if let Some(words) = &want.pyc3d_first_words {
+        check_words(points, 0, words, stem);
+    }
     for marker in 0..points.marker_count() {
         let mut invalid = 0;
         let mut sum = [0.0; 3];
@@ -303,7 +309,7 @@ fn small_scene() -> PointData {
 
 /// The writer's bytes for [`small_scene`] are the stored golden file, which ezc3d 1.7.2 reads
 /// (`scripts/reference/c3d_written_check.py` → `teachcam_written.json`) as the scene: labels,
-/// rate, units, coordinates and gaps. Regenerate with `TEACHCAM_BLESS=1` after a deliberate
+/// rate, units, coordinates and gaps; py-c3d 0.6.0 reads its residuals and camera masks. Regenerate with `TEACHCAM_BLESS=1` after a deliberate
 /// format change, then rerun the script.
 #[test]
 fn written_file_matches_golden_and_ezc3d_reads_it() {
@@ -328,6 +334,7 @@ fn written_file_matches_golden_and_ezc3d_reads_it() {
         units: String,
         frames: usize,
         points: Vec<Vec<Option<[f64; 3]>>>,
+        pyc3d_words: Vec<Vec<Option<Word>>>,
     }
     let json = dir.join("teachcam_written.json");
     let text = std::fs::read_to_string(&json).unwrap_or_else(|e| panic!("{}: {e}", json.display()));
@@ -347,6 +354,27 @@ fn written_file_matches_golden_and_ezc3d_reads_it() {
                     assert!(d <= 6.2e-5, "frame {frame} marker {marker}: {o:?} vs {p:?}");
                 }
                 _ => panic!("frame {frame} marker {marker}: {ours:?} vs ezc3d {p:?}"),
+            }
+        }
+    }
+    // py-c3d reads the residual word as written: camera mask, residual in 0.01 mm steps.
+    assert_eq!(seen.pyc3d_words.len(), scene.frame_count());
+    for (frame, row) in seen.pyc3d_words.iter().enumerate() {
+        for (marker, word) in row.iter().enumerate() {
+            let ours = scene.sample(FrameIndex(frame), marker);
+            match (ours, word) {
+                (None, None) => {}
+                (Some(o), Some(w)) => {
+                    assert_eq!(
+                        o.camera_mask, w.camera_mask,
+                        "frame {frame} marker {marker}"
+                    );
+                    assert!(
+                        (o.residual - w.residual).abs() <= 0.005 + 1e-6,
+                        "{o:?} vs {w:?}"
+                    );
+                }
+                _ => panic!("frame {frame} marker {marker}: {ours:?} vs py-c3d {word:?}"),
             }
         }
     }

@@ -75,7 +75,9 @@ pub fn to_bytes(points: &PointData, residual_step: f64) -> Result<Vec<u8>, C3dEr
     put16(8, header_last);
     put16(10, 0);
     put16(16, data_start_block as u16);
-    put16(18, 0);
+    // One analog sample per frame at ANALOG:RATE = POINT:RATE, of zero channels: readers that
+    // check header word 10 against ANALOG:RATE / POINT:RATE (py-c3d) accept the file.
+    put16(18, 1);
     put16(298, 12345);
     out[12..16].copy_from_slice(&scale.to_le_bytes());
     out[20..24].copy_from_slice(&rate.to_le_bytes());
