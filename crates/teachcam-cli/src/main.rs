@@ -28,6 +28,10 @@ enum Command {
     Simulate(cmd::simulate::Args),
     /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
     Uncertainty(cmd::uncertainty::Args),
+    /// First-order tip uncertainty over a grid of the working volume.
+    UncertaintyMap(cmd::uncertainty_map::Args),
+    /// Check a tool's marker layout: identification margin and expected tip error.
+    ToolCheck(cmd::tool_check::Args),
     /// Inspect C3D motion-capture files (`teachcam c3d info FILE.c3d`).
     C3d(cmd::c3d::Args),
     /// Another tracker's markers (C3D, Motive CSV, Qualisys TSV) to a tool trajectory.
@@ -65,6 +69,8 @@ fn main() -> ExitCode {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
+        Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
+        Command::ToolCheck(args) => cmd::tool_check::run(&args),
         Command::C3d(args) => cmd::c3d::run(&args),
         Command::Import(args) => cmd::import::run(&args),
     };

@@ -23,6 +23,7 @@
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
 //! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
+//! - [`detect`]: marker blobs in an image, with sub-pixel centres (§II-A, §IV-A).
 //! - [`correspond`]: which blobs in different cameras show the same marker (§II-A).
 //! - [`triangulate`]: 3-D points from corresponding blobs.
 //! - [`identify`]: which point is which marker, by distance-matrix voting (§II-B).
@@ -33,17 +34,18 @@
 //! - [`c3d`]: C3D motion-capture files in and out.
 //! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
 
-pub mod c3d;
-pub mod camera;
-pub mod correspond;
 pub mod geometry;
-pub mod identify;
-pub mod io;
-pub mod metrology;
-pub mod register;
-pub mod sim;
+pub mod camera;
 pub mod tool;
-pub mod track;
 pub mod trajectory;
+pub mod io;
+pub mod detect;
+pub mod correspond;
 pub mod triangulate;
+pub mod identify;
+pub mod register;
+pub mod track;
+pub mod metrology;
+pub mod sim;
+pub mod c3d;
 pub mod vendor;
