@@ -515,6 +515,64 @@ mod fuzz {
             let _ = c3d::read(&bytes[..cut]);
         }
 
+        /// Law: any marker data the writer accepts reads back as written (labels, rate, units,
+        /// gaps, float32 coordinates, camera masks, residuals to half a step).
+        #[test]
+        fn written_points_read_back(
+            labels in proptest::collection::vec("[A-Za-z0-9_:]{1,12}", 1..6),
+            rate_hz in 1.0f64..2000.0,
+            frames in proptest::collection::vec(
+                proptest::collection::vec(
+                    proptest::option::of((
+                        proptest::array::uniform3(-5000.0f64..5000.0),
+                        0.0f64..2.5,
+                        0u8..128,
+                    )),
+                    6,
+                ),
+                0..40,
+            ),
+        ) {
+            let n = labels.len();
+            let rows: Vec<Vec<Option<c3d::PointSample>>> = frames
+                .iter()
+                .map(|row| {
+                    row[..n]
+                        .iter()
+                        .map(|s| {
+                            s.map(|(p, residual, camera_mask)| c3d::PointSample {
+                                position: teachcam::geometry::Point3::from(p),
+                                residual,
+                                camera_mask,
+                            })
+                        })
+                        .collect()
+                })
+                .collect();
+            let points = PointData::new(labels, rate_hz, "mm".into(), &rows)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let bytes = c3d::to_bytes(&points, 0.01).unwrap_or_else(|e| panic!("{e}"));
+            let back = c3d::read(&bytes).unwrap_or_else(|e| panic!("{e}")).points;
+            prop_assert_eq!(&back.labels, &points.labels);
+            prop_assert_eq!(back.rate_hz, f64::from(rate_hz as f32));
+            prop_assert_eq!(back.frame_count(), points.frame_count());
+            for f in 0..points.frame_count() {
+                for m in 0..n {
+                    let (a, b) = (
+                        points.sample(FrameIndex(f), m),
+                        back.sample(FrameIndex(f), m),
+                    );
+                    prop_assert_eq!(a.is_some(), b.is_some());
+                    if let (Some(a), Some(b)) = (a, b) {
+                        let step = 5000.0 * f64::from(f32::EPSILON);
+                        prop_assert!((a.position - b.position).amax() <= step);
+                        prop_assert_eq!(a.camera_mask, b.camera_mask);
+                        prop_assert!((a.residual - b.residual).abs() <= 0.005 + 1e-6);
+                    }
+                }
+            }
+        }
+
         /// Mutations focused on the header and parameter section of a real file.
         #[test]
         fn mutated_real_header_never_panics(
