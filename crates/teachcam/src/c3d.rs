@@ -38,8 +38,8 @@ use std::path::{Path, PathBuf};
 pub use bytes::Processor;
 pub use parameters::{Group, Parameter, ParameterData, Parameters};
 pub use rigid::{
-    MarkerSelection, ToolFromData, ToolFromDataConfig, TrackMarkersConfig, points_from_trajectory,
-    tool_from_data, track_markers,
+    MarkerSelection, ToolFromData, ToolFromDataConfig, TrackMarkersConfig, points_from_tracks,
+    points_from_trajectory, tool_from_data, track_markers,
 };
 pub use write::{to_bytes, write_file};
 

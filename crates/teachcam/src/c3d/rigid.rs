@@ -339,3 +339,54 @@ pub fn points_from_trajectory(trajectory: &Trajectory, tool: &Tool) -> Result<Po
         .collect();
     PointData::new(labels, rate_hz, "mm".into(), &frames)
 }
+
+/// The tool's *measured* markers in every tracked frame, as marker data for a C3D file: labels
+/// `<tool>:M0`, `<tool>:M1`, ... (the triangulated point identified as that marker, a gap where
+/// none was) and `<tool>:tip` (the registered tip, a gap without a pose); millimetres. The
+/// camera mask has bit `i` set when camera `i` (ids 0–6) saw the marker; the residual is the
+/// pose's registration RMS for the tip and 0 for markers (their reprojection residual is in
+/// pixels, which C3D has no place for).
+///
+/// # Errors
+/// [`C3dError::Unwritable`] for a rate that is not positive and finite.
+pub fn points_from_tracks(
+    tracks: &[crate::track::FrameTrack],
+    tool: &Tool,
+    rate_hz: f64,
+) -> Result<PointData, C3dError> {
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return Err(C3dError::Unwritable {
+            reason: format!("frame rate {rate_hz} Hz"),
+        });
+    }
+    let n = tool.markers_in_tool.len();
+    let mut labels: Vec<String> = (0..n).map(|k| format!("{}:M{k}", tool.name)).collect();
+    labels.push(format!("{}:tip", tool.name));
+    let frames: Vec<Vec<Option<super::PointSample>>> = tracks
+        .iter()
+        .map(|track| {
+            let mut row: Vec<Option<super::PointSample>> = (0..n)
+                .map(|k| {
+                    let point = track.points.get(*track.labels.get(&MarkerId(k))?)?;
+                    let camera_mask = point
+                        .views
+                        .keys()
+                        .filter(|c| c.0 < 7)
+                        .fold(0u8, |mask, c| mask | 1 << c.0);
+                    Some(super::PointSample {
+                        position: point.position,
+                        residual: 0.0,
+                        camera_mask,
+                    })
+                })
+                .collect();
+            row.push(track.outcome.as_ref().ok().map(|pose| super::PointSample {
+                position: pose.tip_in_world,
+                residual: pose.rms_mm,
+                camera_mask: 0,
+            }));
+            row
+        })
+        .collect();
+    PointData::new(labels, rate_hz, "mm".into(), &frames)
+}
