@@ -26,6 +26,12 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Write a simulated recording with its ground truth.
     Simulate(cmd::simulate::Args),
+    /// Find marker blobs with sub-pixel centres in every frame of a recording.
+    Detect(cmd::detect::Args),
+    /// Repeatability of blob centres of static markers (the paper's Fig. 10).
+    Repeatability(cmd::repeatability::Args),
+    /// Track the tool through a recording: detect, correspond, triangulate, identify, register.
+    Track(cmd::track::Args),
     /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
     Uncertainty(cmd::uncertainty::Args),
     /// First-order tip uncertainty over a grid of the working volume.
@@ -68,6 +74,9 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
+        Command::Detect(args) => cmd::detect::run(&args),
+        Command::Repeatability(args) => cmd::repeatability::run(&args),
+        Command::Track(args) => cmd::track::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
