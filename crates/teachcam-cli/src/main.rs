@@ -38,6 +38,10 @@ enum Command {
     UncertaintyMap(cmd::uncertainty_map::Args),
     /// Check a tool's marker layout: identification margin and expected tip error.
     ToolCheck(cmd::tool_check::Args),
+    /// Inspect C3D motion-capture files (`teachcam c3d info FILE.c3d`).
+    C3d(cmd::c3d::Args),
+    /// Another tracker's markers (C3D, Motive CSV, Qualisys TSV) to a tool trajectory.
+    Import(cmd::import::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -76,6 +80,8 @@ fn main() -> ExitCode {
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
+        Command::C3d(args) => cmd::c3d::run(&args),
+        Command::Import(args) => cmd::import::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
