@@ -22,10 +22,12 @@
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
+//! - [`robot`]: vision↔robot frames, IRB 120 kinematics, the robot check, RAPID/KRL/URScript.
 //! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
 
 pub mod camera;
 pub mod geometry;
 pub mod io;
+pub mod robot;
 pub mod tool;
 pub mod trajectory;
