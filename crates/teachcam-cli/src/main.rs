@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod progress;
 
 /// Program an industrial robot by demonstration: marker tracking with calibrated cameras,
 /// trajectory smoothing, robot checks and robot programs (ABB RAPID, KUKA KRL, UR URScript).
@@ -23,6 +24,8 @@ struct Cli {
 enum Command {
     /// Simulate the paper's setup and run the whole pipeline on it.
     Demo(cmd::demo::Args),
+    /// Write a simulated recording with its ground truth.
+    Simulate(cmd::simulate::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
+        Command::Simulate(args) => cmd::simulate::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -2,10 +2,10 @@
 //! source of systematic error"): the work object from points known in both frames, and the
 //! tool centre point by pivot calibration.
 //!
-//! Alignment model (Arun, Huang and Blostein 1987; Umeyama 1991, scale fixed to 1): points
-//! touched by the robot's TCP (`p_i` in the base frame) and seen by the cameras (`w_i` in the
-//! vision world = work-object frame) satisfy `p_i = base_from_wobj * w_i + e_i`; the least-squares
-//! rotation is `R = U diag(1, 1, det(U Vᵀ)) Vᵀ` from the SVD of the cross-covariance
+//! Alignment model (the SVD registration of [`crate::register`]: Arun, Huang and Blostein
+//! 1987; Umeyama 1991; scale fixed to 1): points touched by the robot's TCP (`p_i` in the base
+//! frame) and seen by the cameras (`w_i` in the vision world = work-object frame) satisfy
+//! `p_i = base_from_wobj * w_i + e_i`; the least-squares rotation is `R = U diag(1, 1, det(U Vᵀ)) Vᵀ` from the SVD of the cross-covariance
 //! `Σ (p_i − p̄)(w_i − w̄)ᵀ = U S Vᵀ`, and `t = p̄ − R w̄`.
 //!
 //! Pivot model: the tip rests on one point while the tool turns, so for every pose
@@ -13,9 +13,10 @@
 //! solved by linear least squares (SVD). Its conditioning is the tool's rotation spread: with
 //! rotations about one axis only, the tip's position along that axis is undetermined.
 
-use nalgebra::{DMatrix, DVector, Matrix3, UnitQuaternion};
+use nalgebra::{DMatrix, DVector, Matrix3};
 
-use crate::geometry::{Point3, Pose, Vec3, pose_from_parts};
+use crate::geometry::{Point3, Pose};
+use crate::register::{RegisterError, Scale, register};
 
 /// Why frames could not be computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -41,13 +42,8 @@ pub enum FramesError {
         index: usize,
     },
     /// The points are (nearly) on one line: the rotation about it is unknown.
-    #[error(
-        "the points are collinear (spread {spread_mm:.3} mm off their best line): touch at least 3 points not on one line"
-    )]
-    Collinear {
-        /// The points' second singular value of spread, millimetres.
-        spread_mm: f64,
-    },
+    #[error("the points are collinear: touch at least 3 points not on one line")]
+    Collinear,
     /// Too few poses for a pivot calibration.
     #[error("{count} poses; a pivot calibration needs at least 3")]
     TooFewPoses {
@@ -77,10 +73,6 @@ pub struct Alignment {
     pub rms_mm: f64,
 }
 
-/// Points closer than this to one line (second singular value of the centred points, mm)
-/// leave the rotation about that line unknown.
-const MIN_POINT_SPREAD_MM: f64 = 1.0;
-
 /// Aligns the vision frame with the robot's base from point pairs.
 ///
 /// # Errors
@@ -89,16 +81,6 @@ pub fn align_frames(
     points_in_wobj: &[Point3],
     points_in_base: &[Point3],
 ) -> Result<Alignment, FramesError> {
-    if points_in_wobj.len() != points_in_base.len() {
-        return Err(FramesError::CountMismatch {
-            vision: points_in_wobj.len(),
-            robot: points_in_base.len(),
-        });
-    }
-    let n = points_in_wobj.len();
-    if n < 3 {
-        return Err(FramesError::TooFewPoints { count: n });
-    }
     for (i, (a, b)) in points_in_wobj.iter().zip(points_in_base).enumerate() {
         if !a
             .coords
@@ -109,44 +91,25 @@ pub fn align_frames(
             return Err(FramesError::NotFinite { index: i });
         }
     }
-    let centroid = |points: &[Point3]| points.iter().map(|p| p.coords).sum::<Vec3>() / n as f64;
-    let wobj_mean = centroid(points_in_wobj);
-    let base_mean = centroid(points_in_base);
-    let mut covariance = Matrix3::zeros();
-    let mut spread = Matrix3::zeros();
-    for (a, b) in points_in_wobj.iter().zip(points_in_base) {
-        let da = a.coords - wobj_mean;
-        covariance += (b.coords - base_mean) * da.transpose();
-        spread += da * da.transpose();
-    }
-    // Second largest eigenvalue of the scatter: zero for collinear points.
-    let mut eigen = spread.symmetric_eigenvalues();
-    eigen
-        .as_mut_slice()
-        .sort_by(|x: &f64, y: &f64| y.total_cmp(x));
-    let spread_mm = (eigen[1].max(0.0) / n as f64).sqrt();
-    if spread_mm < MIN_POINT_SPREAD_MM {
-        return Err(FramesError::Collinear { spread_mm });
-    }
-    let svd = covariance.svd(true, true);
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return Err(FramesError::Collinear { spread_mm });
-    };
-    let d = (u * v_t).determinant().signum();
-    let rotation = u * Matrix3::from_diagonal(&Vec3::new(1.0, 1.0, d)) * v_t;
-    let rotation = UnitQuaternion::from_matrix(&rotation);
-    let translation = base_mean - rotation * wobj_mean;
-    let base_from_wobj = pose_from_parts(translation, rotation);
+    let registration =
+        register(points_in_wobj, points_in_base, Scale::Fixed).map_err(|e| match e {
+            RegisterError::CountMismatch { model, measured } => FramesError::CountMismatch {
+                vision: model,
+                robot: measured,
+            },
+            RegisterError::TooFewPoints { count } => FramesError::TooFewPoints { count },
+            RegisterError::Collinear | RegisterError::NotFinite => FramesError::Collinear,
+        })?;
+    let base_from_wobj = registration.measured_from_model;
     let residuals_mm: Vec<f64> = points_in_wobj
         .iter()
         .zip(points_in_base)
         .map(|(a, b)| (base_from_wobj * a - b).norm())
         .collect();
-    let rms_mm = (residuals_mm.iter().map(|r| r * r).sum::<f64>() / n as f64).sqrt();
     Ok(Alignment {
         base_from_wobj,
         residuals_mm,
-        rms_mm,
+        rms_mm: registration.rms_mm,
     })
 }
 
