@@ -26,6 +26,10 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Write a simulated recording with its ground truth.
     Simulate(cmd::simulate::Args),
+    /// Check a trajectory on a robot: reach, joint limits, speeds, singularities.
+    Check(cmd::check::Args),
+    /// Write a robot program (RAPID, KRL, URScript or CSV) for a trajectory.
+    Export(cmd::export::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -46,12 +50,18 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
+        Command::Check(args) => cmd::check::run(&args),
+        Command::Export(args) => cmd::export::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
-            if error.chain().any(|cause| cause.is::<DataRejected>()) {
+            // `chain()` yields context layers as anyhow's wrapper type, so a `DataRejected`
+            // given as context is found by `downcast_ref`, not by `is`.
+            if error.downcast_ref::<DataRejected>().is_some()
+                || error.chain().any(|cause| cause.is::<DataRejected>())
+            {
                 ExitCode::from(1)
             } else {
                 ExitCode::from(2)

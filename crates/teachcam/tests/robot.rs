@@ -597,3 +597,98 @@ fn pivot_calibration_recovers_the_tip_and_refuses_too_little_rotation() {
         Err(FramesError::TooLittleRotation { .. })
     ));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Golden files: the programs of a 1 s stroke must stay byte-stable (set UPDATE_GOLDEN=1 to
+// rewrite them after a deliberate change, then read the diff).
+
+#[expect(
+    clippy::unwrap_used,
+    reason = "test helper: failing to write a golden file fails the test"
+)]
+fn golden(name: &str, text: &str) {
+    let path = data_dir().join(name);
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        std::fs::write(&path, text).unwrap();
+        return;
+    }
+    let expected = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("{}: {e} (run with UPDATE_GOLDEN=1)", path.display()));
+    assert!(
+        expected == text,
+        "{} differs from the written program (UPDATE_GOLDEN=1 rewrites it)",
+        path.display()
+    );
+}
+
+#[test]
+fn programs_match_their_golden_files() {
+    use teachcam::robot::krl::krl_program;
+    use teachcam::robot::table::{joints_csv, poses_csv};
+    use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
+    let model = RobotModel::irb120();
+    let cell = cell();
+    let targets = targets(&stroke(1.0, 1.0));
+    let report = check_path(&model, &cell, &targets, &CheckConfig::default());
+    assert!(report.passes());
+    let program = build_program("stroke", &cell, &report, &SimplifyConfig::default());
+    golden(
+        "stroke.mod",
+        &rapid_module(&program, &RapidConfig::default()),
+    );
+    let krl = krl_program(&program);
+    golden("stroke.src", &krl.src);
+    golden("stroke.dat", &krl.dat);
+    golden(
+        "stroke.script",
+        &urscript_program(&program, &UrScriptConfig::default()),
+    );
+    golden("stroke_poses.csv", &poses_csv(&report));
+    golden("stroke_joints.csv", &joints_csv(&report));
+}
+
+/// KRL's A, B, C and URScript's rotation vectors read back give the targets' orientations.
+#[test]
+fn krl_and_urscript_orientations_read_back() {
+    use teachcam::robot::krl::krl_program;
+    use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
+    let model = RobotModel::irb120();
+    let cell = cell();
+    let targets = targets(&stroke(2.0, 1.0));
+    let report = check_path(&model, &cell, &targets, &CheckConfig::default());
+    let program = build_program("stroke", &cell, &report, &SimplifyConfig::default());
+    let krl = krl_program(&program);
+    let points: Vec<&str> = krl
+        .dat
+        .lines()
+        .filter(|l| l.contains("DECL E6POS"))
+        .collect();
+    assert_eq!(points.len(), program.moves.len());
+    for (line, m) in points.iter().zip(&program.moves) {
+        let inner = line.split('{').nth(1).unwrap().trim_end_matches('}');
+        let v: Vec<f64> = inner
+            .split(',')
+            .map(|f| f.split_whitespace().nth(1).unwrap().parse().unwrap())
+            .collect();
+        let (a, b, c) = (v[3].to_radians(), v[4].to_radians(), v[5].to_radians());
+        // KUKA: R = Rz(A) Ry(B) Rx(C).
+        let rotation = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), a)
+            * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), b)
+            * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), c);
+        let pose = pose_from_parts(Vector3::new(v[0], v[1], v[2]), rotation);
+        assert_pose_near(&pose, &m.target.wobj_from_tcp, 0.001, 1e-6, "krl point");
+    }
+    let script = urscript_program(&program, &UrScriptConfig::default());
+    let moves: Vec<&str> = script.lines().filter(|l| l.contains("movel(")).collect();
+    assert_eq!(moves.len(), program.moves.len());
+    for (line, m) in moves.iter().zip(&program.moves) {
+        let inner = line.split("p[").nth(1).unwrap().split(']').next().unwrap();
+        let v: Vec<f64> = inner
+            .split(',')
+            .map(|f| f.trim().parse().unwrap())
+            .collect();
+        let rotation = UnitQuaternion::from_scaled_axis(Vector3::new(v[3], v[4], v[5]));
+        let pose = pose_from_parts(Vector3::new(v[0], v[1], v[2]) * 1000.0, rotation);
+        assert_pose_near(&pose, &m.target.wobj_from_tcp, 0.001, 1e-6, "urscript pose");
+    }
+}

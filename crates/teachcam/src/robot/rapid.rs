@@ -7,7 +7,8 @@
 //! `wobjdata = [robhold, ufprog, ufmec, uframe, oframe]`,
 //! `robtarget = [trans, rot (q1..q4 = qw, qx, qy, qz), robconf [cf1, cf4, cf6, cfx], extax]`,
 //! `speeddata = [v_tcp mm/s, v_ori °/s, v_leax mm/s, v_reax °/s]`; predefined `zonedata` `z0`
-//! (0.3 mm), `z1` (1 mm), `z5`, `z10` and `fine`.
+//! (0.3 mm), `z1` (1 mm), `z5`, `z10` and `fine`. The first target is approached with a
+//! `MoveJ` at the predefined `v100` (100 mm/s): a careful approach from wherever the robot stands.
 
 use std::fmt::Write as _;
 
@@ -24,9 +25,6 @@ pub struct RapidConfig {
     /// `path_1`, `path_2`, … called in order, which keeps each one quick to open on the
     /// FlexPendant and under the controller's routine size limits.
     pub max_moves_per_routine: usize,
-    /// Speed of the first move (a `MoveJ` to the start), mm/s. Default 100 mm/s: a careful
-    /// approach from wherever the robot stands.
-    pub approach_speed: f64,
 }
 
 impl Default for RapidConfig {
@@ -34,7 +32,6 @@ impl Default for RapidConfig {
         Self {
             tool_mass_kg: 0.2,
             max_moves_per_routine: 500,
-            approach_speed: 100.0,
         }
     }
 }
@@ -111,9 +108,8 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
     if !program.moves.is_empty() {
         let _ = writeln!(
             out,
-            "    MoveJ {}, [{},500,5000,1000], fine, {tool}\\WObj:={wobj};",
-            target_name(0),
-            number(config.approach_speed, 1)
+            "    MoveJ {}, v100, fine, {tool}\\WObj:={wobj};",
+            target_name(0)
         );
     }
     for r in 0..routines.len() {
