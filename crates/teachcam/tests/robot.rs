@@ -692,3 +692,79 @@ fn krl_and_urscript_orientations_read_back() {
         assert_pose_near(&pose, &m.target.wobj_from_tcp, 0.001, 1e-6, "urscript pose");
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// The demo trajectory (the simulator's paper scenario) on the IRB 120: the "done when".
+
+/// The work object 350 mm in front of the robot, 100 mm up; the brush mounted 200 mm out of
+/// the flange with its tool z axis (up, away from the tip) against the flange's z (down).
+fn demo_cell() -> Cell {
+    Cell {
+        base_from_wobj: pose_from_parts(
+            Vector3::new(350.0, 0.0, 100.0),
+            UnitQuaternion::identity(),
+        ),
+        flange_from_tcp: pose_from_parts(
+            Vector3::new(0.0, 0.0, 200.0),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), PI),
+        ),
+    }
+}
+
+#[test]
+fn demo_trajectory_passes_and_its_program_reproduces_the_tcp_poses() {
+    use teachcam::sim::{Scenario, build_scene};
+    let scene = build_scene(Scenario::Paper, 1);
+    let model = RobotModel::irb120();
+    let cell = demo_cell();
+    let targets = tcp_targets(&scene.truth, &scene.tool.tool_from_tcp.rotation);
+    assert_eq!(targets.len(), scene.truth.len());
+    let report = check_path(&model, &cell, &targets, &CheckConfig::default());
+    assert!(report.passes(), "{:?}", report.failing().next());
+    // Targets: the truth's tip with the tool's orientation, computed here independently from
+    // world_from_tool and the tool file.
+    let program = build_program("demo", &cell, &report, &SimplifyConfig::default());
+    let module = rapid_module(&program, &RapidConfig::default());
+    let written = robtargets(&module);
+    assert_eq!(written.len(), program.moves.len());
+    for ((pose, _), m) in written.iter().zip(&program.moves) {
+        let sample = &scene.truth.samples[m.target.frame.0];
+        let expected = sample.pose.unwrap().world_from_tool * scene.tool.tool_from_tcp;
+        assert_pose_near(pose, &expected, 0.01, 0.001f64.to_radians(), "demo target");
+    }
+    // Joints reproduce every target through forward kinematics.
+    for f in &report.frames {
+        let joints = f.joints.unwrap();
+        let left = forward(&model.geometry, &joints) * cell.flange_from_tcp;
+        let right = cell.base_from_wobj * f.target.wobj_from_tcp;
+        assert_pose_near(&left, &right, 1e-6, 1e-9, "demo joints");
+    }
+}
+
+/// With 0.05 mm of Gaussian noise on each pose's position, the residual is the noise's 3-D
+/// RMS (σ√3 ≈ 0.087 mm, less 6 fitted parameters out of 180 equations), and the tip error is
+/// about σ / (spread √n) ≈ 0.02 mm: 0.1 mm is five of those.
+#[test]
+fn pivot_calibration_residual_measures_the_noise() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let noise = Normal::new(0.0, 0.05).unwrap();
+    let tip_in_tool = Vector3::new(3.0, -15.0, -180.0);
+    let poses: Vec<Pose> = (0..60)
+        .map(|k| {
+            let t = k as f64 / 60.0 * TAU;
+            let r = UnitQuaternion::from_euler_angles(0.5 * t.sin(), 0.5 * t.cos(), 0.3 * t);
+            let jitter = Vector3::from_fn(|_, _| noise.sample(&mut rng));
+            pose_from_parts(Vector3::new(100.0, 50.0, 0.0) - r * tip_in_tool + jitter, r)
+        })
+        .collect();
+    let result = pivot_calibration(&poses, &PivotConfig::default()).unwrap();
+    let expected_rms = 0.05 * 3f64.sqrt() * (174.0f64 / 180.0).sqrt();
+    assert!(
+        (result.rms_mm / expected_rms - 1.0).abs() < 0.25,
+        "rms {} vs {expected_rms}",
+        result.rms_mm
+    );
+    assert!((result.tip_in_tool.coords - tip_in_tool).norm() < 0.1);
+}

@@ -10,10 +10,12 @@
 //!
 //! Pivot model: the tip rests on one point while the tool turns, so for every pose
 //! `world_from_tool_k * tip_in_tool = pivot_in_world`, i.e. `[R_k  −I] [tip; pivot] = −t_k`,
-//! solved by linear least squares (SVD). Its conditioning is the tool's rotation spread: with
+//! solved by linear least squares (normal equations, 6x6). Its conditioning is the tool's rotation spread: with
 //! rotations about one axis only, the tip's position along that axis is undetermined.
 
-use nalgebra::{DMatrix, DVector, Matrix3};
+use std::ops::AddAssign;
+
+use nalgebra::{Matrix3, Matrix6, Vector6};
 
 use crate::geometry::{Point3, Pose};
 use crate::register::{RegisterError, Scale, register};
@@ -164,41 +166,57 @@ pub fn pivot_calibration(
             return Err(FramesError::NotFinite { index: i });
         }
     }
-    // Spread: smallest singular value of the stacked centred rotations, per pose. For small
-    // turns R ≈ I + [ω]×, this is the RMS angle about the least-excited axis.
+    // Spread: the smallest singular value of the stacked centred rotations `R_k - R̄`, per
+    // pose, from the 3x3 Gram matrix. For small turns R ≈ I + [ω]×, this is the RMS angle
+    // about the least-excited axis.
     let matrices: Vec<Matrix3<f64>> = world_from_tool
         .iter()
         .map(|p| p.rotation.to_rotation_matrix().into_inner())
         .collect();
     let mean = matrices.iter().sum::<Matrix3<f64>>() / n as f64;
-    let mut centred = DMatrix::zeros(3 * n, 3);
-    for (k, m) in matrices.iter().enumerate() {
-        centred.view_mut((3 * k, 0), (3, 3)).copy_from(&(m - mean));
-    }
-    let rotation_spread = centred
-        .singular_values()
+    let gram: Matrix3<f64> = matrices
+        .iter()
+        .map(|m| (m - mean).transpose() * (m - mean))
+        .sum();
+    let smallest = gram
+        .symmetric_eigenvalues()
         .iter()
         .copied()
-        .fold(f64::INFINITY, f64::min)
-        / (n as f64).sqrt();
+        .fold(f64::INFINITY, f64::min);
+    let rotation_spread = (smallest.max(0.0) / n as f64).sqrt();
     if rotation_spread < config.min_rotation_spread {
         return Err(FramesError::TooLittleRotation {
             spread_deg: rotation_spread.to_degrees(),
             min_deg: config.min_rotation_spread.to_degrees(),
         });
     }
-    let mut a = DMatrix::zeros(3 * n, 6);
-    let mut b = DVector::zeros(3 * n);
-    for (k, (pose, m)) in world_from_tool.iter().zip(&matrices).enumerate() {
-        a.view_mut((3 * k, 0), (3, 3)).copy_from(m);
-        a.view_mut((3 * k, 3), (3, 3))
-            .copy_from(&(-Matrix3::identity()));
-        b.rows_mut(3 * k, 3).copy_from(&(-pose.translation.vector));
+    // Normal equations of [R_k  -I] x = -t_k, accumulated as 3x3 blocks:
+    // AᵀA = [[n I, -Σ R_kᵀ], [-Σ R_k, n I]], Aᵀb = [-Σ R_kᵀ t_k, Σ t_k]. Well conditioned once
+    // the spread check has passed, so a 6x6 solve loses no accuracy that matters.
+    let sum_r: Matrix3<f64> = matrices.iter().sum();
+    let mut normal = Matrix6::zeros();
+    normal
+        .fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(Matrix3::identity() * n as f64));
+    normal
+        .fixed_view_mut::<3, 3>(3, 3)
+        .copy_from(&(Matrix3::identity() * n as f64));
+    normal
+        .fixed_view_mut::<3, 3>(0, 3)
+        .copy_from(&(-sum_r.transpose()));
+    normal.fixed_view_mut::<3, 3>(3, 0).copy_from(&(-sum_r));
+    let mut rhs = Vector6::zeros();
+    for (pose, m) in world_from_tool.iter().zip(&matrices) {
+        let t = pose.translation.vector;
+        let top = -(m.transpose() * t);
+        rhs.fixed_rows_mut::<3>(0).add_assign(&top);
+        rhs.fixed_rows_mut::<3>(3).add_assign(&t);
     }
     let solution =
-        a.svd(true, true)
-            .solve(&b, 1e-12)
-            .map_err(|_| FramesError::TooLittleRotation {
+        normal
+            .cholesky()
+            .map(|c| c.solve(&rhs))
+            .ok_or(FramesError::TooLittleRotation {
                 spread_deg: rotation_spread.to_degrees(),
                 min_deg: config.min_rotation_spread.to_degrees(),
             })?;
