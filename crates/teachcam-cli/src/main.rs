@@ -30,6 +30,10 @@ enum Command {
     Check(cmd::check::Args),
     /// Write a robot program (RAPID, KRL, URScript or CSV) for a trajectory.
     Export(cmd::export::Args),
+    /// Align the vision frame with the robot's base from points known in both.
+    Align(cmd::align::Args),
+    /// Pivot calibration of the tool centre point.
+    Pivot(cmd::pivot::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -52,6 +56,8 @@ fn main() -> ExitCode {
         Command::Simulate(args) => cmd::simulate::run(&args),
         Command::Check(args) => cmd::check::run(&args),
         Command::Export(args) => cmd::export::run(&args),
+        Command::Align(args) => cmd::align::run(&args),
+        Command::Pivot(args) => cmd::pivot::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

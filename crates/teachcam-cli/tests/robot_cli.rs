@@ -199,3 +199,52 @@ fn bad_inputs_name_the_flag_or_the_file() {
     assert!(text(&out.stderr).contains("header"));
     assert!(!never.exists());
 }
+
+#[test]
+fn align_prints_the_work_object_and_refuses_collinear_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let points = dir.path().join("touched.csv");
+    // base = wobj + (350, 0, 150), rotated 90° about z: (x, y) -> (-y, x).
+    std::fs::write(
+        &points,
+        "x_wobj_mm,y_wobj_mm,z_wobj_mm,x_base_mm,y_base_mm,z_base_mm\n\
+         0,0,0,350,0,150\n100,0,0,350,100,150\n0,100,0,250,0,150\n100,100,5,250,100,155\n",
+    )
+    .unwrap();
+    let out = teachcam(&["align", points.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains(
+            "--wobj \"350.000,0.000,150.000,0.707106781,0.000000000,0.000000000,0.707106781\""
+        ),
+        "{stdout}"
+    );
+    std::fs::write(
+        &points,
+        "x_wobj_mm,y_wobj_mm,z_wobj_mm,x_base_mm,y_base_mm,z_base_mm\n0,0,0,0,0,0\n1,0,0,1,0,0\n2,0,0,2,0,0\n",
+    )
+    .unwrap();
+    let out = teachcam(&["align", points.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("collinear"));
+    std::fs::write(&points, "x,y\n").unwrap();
+    let out = teachcam(&["align", points.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("line 1"));
+}
+
+#[test]
+fn pivot_refuses_a_recording_that_does_not_turn() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("pivot.csv");
+    // The stroke above turns about a fixed axis only (its tilt varies about one axis): refused.
+    write_stroke(&trajectory, 1.0);
+    let out = teachcam(&["pivot", trajectory.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("turned too little"),
+        "{}",
+        text(&out.stderr)
+    );
+}

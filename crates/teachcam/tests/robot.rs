@@ -768,3 +768,65 @@ fn pivot_calibration_residual_measures_the_noise() {
     );
     assert!((result.tip_in_tool.coords - tip_in_tool).norm() < 0.1);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Parsers: never a panic, always a named cause, written forms read back.
+
+proptest! {
+    #[test]
+    fn pose_text_parser_never_panics(text in ".{0,80}") {
+        let _ = teachcam::robot::parse_pose_text(&text);
+    }
+
+    #[test]
+    fn pose_text_parser_refuses_numbers_with_a_named_cause(
+        values in proptest::collection::vec(-1e4f64..1e4, 0..10)
+    ) {
+        let text = values.iter().map(|v| format!("{v}")).collect::<Vec<_>>().join(",");
+        if let Err(e) = teachcam::robot::parse_pose_text(&text) {
+            prop_assert!(e.to_string().contains(&text));
+        }
+    }
+
+    #[test]
+    fn pose_text_round_trips(
+        x in -2000.0f64..2000.0, y in -2000.0f64..2000.0, z in -2000.0f64..2000.0,
+        roll in -PI..PI, pitch in -1.5f64..1.5, yaw in -PI..PI,
+    ) {
+        let pose = pose_from_parts(
+            Vector3::new(x, y, z),
+            UnitQuaternion::from_euler_angles(roll, pitch, yaw),
+        );
+        let back = teachcam::robot::parse_pose_text(&teachcam::robot::pose_text(&pose)).unwrap();
+        prop_assert!((back.translation.vector - pose.translation.vector).norm() < 1e-3);
+        prop_assert!(back.rotation.angle_to(&pose.rotation) < 1e-8);
+    }
+
+    #[test]
+    fn point_pairs_parser_never_panics(body in "[0-9a-z,.\\-\\n ]{0,200}") {
+        let text = format!("x_wobj_mm,y_wobj_mm,z_wobj_mm,x_base_mm,y_base_mm,z_base_mm\n{body}");
+        match teachcam::robot::frames::parse_point_pairs(&text) {
+            Ok(pairs) => prop_assert_eq!(pairs.in_wobj.len(), pairs.in_base.len()),
+            Err(message) => prop_assert!(message.starts_with("line ")),
+        }
+    }
+}
+
+#[test]
+fn pose_text_errors_name_the_problem() {
+    use teachcam::robot::{PoseTextError, parse_pose_text};
+    assert!(matches!(
+        parse_pose_text("1,2,3"),
+        Err(PoseTextError::Count { count: 3, .. })
+    ));
+    assert!(matches!(
+        parse_pose_text("1,2,3,1,0,0,nan"),
+        Err(PoseTextError::NotANumber { .. })
+    ));
+    assert!(matches!(
+        parse_pose_text("1,2,3,1,1,0,0"),
+        Err(PoseTextError::NotUnit { .. })
+    ));
+    let pose = parse_pose_text(" 350, 0 ,150,1,0,0,0").unwrap();
+    assert_eq!(pose.translation.vector, Vector3::new(350.0, 0.0, 150.0));
+}

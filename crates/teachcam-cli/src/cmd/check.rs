@@ -5,12 +5,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use nalgebra::UnitQuaternion;
-use teachcam::geometry::{Pose, Quat, pose_from_parts};
+use teachcam::geometry::Pose;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::robot::check::{CheckConfig, CheckReport, check_path};
 use teachcam::robot::kinematics::RobotModel;
 use teachcam::robot::table::joints_csv;
-use teachcam::robot::{Cell, TcpTarget, tcp_targets};
+use teachcam::robot::{Cell, TcpTarget, parse_pose_text, tcp_targets};
 
 use crate::DataRejected;
 
@@ -73,29 +73,7 @@ pub struct Resolved {
 
 /// Parses "x,y,z,qw,qx,qy,qz" into a pose, naming the flag on failure.
 pub fn parse_pose(text: &str, flag: &str) -> anyhow::Result<Pose> {
-    let values: Vec<f64> = text
-        .split(',')
-        .map(|v| v.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("{flag} '{text}': not seven numbers x,y,z,qw,qx,qy,qz"))?;
-    let [x, y, z, w, qx, qy, qz] = values[..] else {
-        bail!(
-            "{flag} '{text}': {} numbers, expected seven (x,y,z,qw,qx,qy,qz)",
-            values.len()
-        );
-    };
-    if ![x, y, z].iter().all(|v| v.is_finite()) {
-        bail!("{flag} '{text}': position is not finite");
-    }
-    let rotation = Quat {
-        w,
-        x: qx,
-        y: qy,
-        z: qz,
-    }
-    .to_rotation()
-    .with_context(|| format!("{flag} '{text}': qw,qx,qy,qz is not a unit quaternion"))?;
-    Ok(pose_from_parts(nalgebra::Vector3::new(x, y, z), rotation))
+    parse_pose_text(text).with_context(|| flag.to_string())
 }
 
 /// Reads the trajectory and the tool, and parses the frames.

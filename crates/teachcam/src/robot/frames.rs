@@ -235,3 +235,69 @@ pub fn pivot_calibration(
         rotation_spread,
     })
 }
+
+/// Point pairs for [`align_frames`]: the same physical points in the work-object (vision) frame
+/// and in the robot's base frame.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PointPairs {
+    /// Points as the cameras saw them, in the work-object frame.
+    pub in_wobj: Vec<Point3>,
+    /// The same points touched by the robot's TCP, in its base frame.
+    pub in_base: Vec<Point3>,
+}
+
+/// The header of a point-pairs CSV.
+pub const POINT_PAIRS_HEADER: [&str; 6] = [
+    "x_wobj_mm",
+    "y_wobj_mm",
+    "z_wobj_mm",
+    "x_base_mm",
+    "y_base_mm",
+    "z_base_mm",
+];
+
+/// Parses a point-pairs CSV: the header [`POINT_PAIRS_HEADER`], then one pair per line.
+///
+/// # Errors
+/// A lowercase message naming the 1-based line and the column.
+pub fn parse_point_pairs(text: &str) -> Result<PointPairs, String> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')));
+    let header_ok = lines.next().is_some_and(|(_, h)| {
+        h.split(',').map(str::trim).collect::<Vec<_>>() == POINT_PAIRS_HEADER
+    });
+    if !header_ok {
+        return Err(format!(
+            "line 1: header must be {}",
+            POINT_PAIRS_HEADER.join(",")
+        ));
+    }
+    let mut pairs = PointPairs::default();
+    for (line, row) in lines {
+        if row.trim().is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = row.split(',').map(str::trim).collect();
+        if fields.len() != 6 {
+            return Err(format!("line {line}: {} fields, expected 6", fields.len()));
+        }
+        let mut v = [0.0; 6];
+        for (c, (slot, field)) in v.iter_mut().zip(&fields).enumerate() {
+            *slot = field
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "line {line}: {}: '{field}' is not a finite number",
+                        POINT_PAIRS_HEADER[c]
+                    )
+                })?;
+        }
+        pairs.in_wobj.push(Point3::new(v[0], v[1], v[2]));
+        pairs.in_base.push(Point3::new(v[3], v[4], v[5]));
+    }
+    Ok(pairs)
+}
