@@ -3,6 +3,11 @@
 pub mod align;
 pub mod check;
 pub mod demo;
+pub mod detect;
 pub mod export;
 pub mod pivot;
+pub mod repeatability;
 pub mod simulate;
+pub mod tool_check;
+pub mod uncertainty;
+pub mod uncertainty_map;

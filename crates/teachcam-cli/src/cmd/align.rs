@@ -7,7 +7,7 @@ use teachcam::io::read_text;
 use teachcam::robot::frames::{align_frames, parse_point_pairs};
 use teachcam::robot::pose_text;
 
-use crate::DataRejected;
+use crate::Rejected;
 
 /// Align the vision frame (the work object) with the robot's base frame from three or more
 /// points touched by the robot's TCP and seen by the cameras. Prints the `--wobj` value for
@@ -26,13 +26,13 @@ pub struct Args {
 /// Run the command.
 #[expect(clippy::print_stdout, reason = "the alignment is the command's output")]
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let text = read_text(&args.points).context(DataRejected)?;
+    let text = read_text(&args.points).rejected()?;
     let pairs = parse_point_pairs(&text)
         .map_err(|m| anyhow::anyhow!("{}: {m}", args.points.display()))
-        .context(DataRejected)?;
+        .rejected()?;
     let alignment = align_frames(&pairs.in_wobj, &pairs.in_base)
         .with_context(|| format!("{}", args.points.display()))
-        .context(DataRejected)?;
+        .rejected()?;
     for (i, r) in alignment.residuals_mm.iter().enumerate() {
         println!("point {i}: residual {r:.3} mm");
     }

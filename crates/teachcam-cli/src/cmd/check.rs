@@ -12,7 +12,7 @@ use teachcam::robot::kinematics::RobotModel;
 use teachcam::robot::table::joints_csv;
 use teachcam::robot::{Cell, TcpTarget, parse_pose_text, tcp_targets};
 
-use crate::DataRejected;
+use crate::Rejected;
 
 /// Check a trajectory on a robot: every frame reachable, joints inside their ranges, joint
 /// speeds within the data sheet's at the recorded timing, no configuration change; frames near
@@ -93,20 +93,20 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
     let tip_rotation = match &args.tool {
         Some(path) => {
             teachcam::io::tool::read_tool(path)
-                .context(DataRejected)?
+                .rejected()?
                 .tool_from_tcp
                 .rotation
         }
         None => UnitQuaternion::identity(),
     };
-    let trajectory = read_trajectory(trajectory).context(DataRejected)?;
+    let trajectory = read_trajectory(trajectory).rejected()?;
     let targets = tcp_targets(&trajectory, &tip_rotation);
     if targets.is_empty() {
         return Err(anyhow::anyhow!(
             "{}: no frame has a pose",
             args_path(trajectory.len())
         ))
-        .context(DataRejected);
+        .rejected();
     }
     let config = CheckConfig {
         speed_fraction: args.speed_fraction,
@@ -185,6 +185,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             report.frames.len(),
             resolved.model.name
         ))
-        .context(DataRejected)
+        .rejected()
     }
 }

@@ -2,7 +2,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use teachcam::io::write_atomically;
 use teachcam::robot::check::check_path;
 use teachcam::robot::krl::krl_program;
@@ -13,7 +12,7 @@ use teachcam::robot::table::poses_csv;
 use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
 
 use super::check::{CellArgs, resolve, summary};
-use crate::DataRejected;
+use crate::Rejected;
 
 /// The program dialects.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -87,7 +86,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 report.frames.len(),
                 resolved.model.name
             ))
-            .context(DataRejected);
+            .rejected();
         }
     }
     let name = args.name.clone().unwrap_or_else(|| {

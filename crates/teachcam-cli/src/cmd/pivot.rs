@@ -6,7 +6,7 @@ use anyhow::Context;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::robot::frames::{PivotConfig, pivot_calibration};
 
-use crate::DataRejected;
+use crate::Rejected;
 
 /// Pivot calibration: the tip's position in the tool frame (the `tip` of tool.json) from a
 /// tracked recording in which the tip rests on one point while the tool is turned about it.
@@ -25,7 +25,7 @@ pub struct Args {
 /// Run the command.
 #[expect(clippy::print_stdout, reason = "the tip is the command's output")]
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let trajectory = read_trajectory(&args.trajectory).context(DataRejected)?;
+    let trajectory = read_trajectory(&args.trajectory).rejected()?;
     let poses: Vec<_> = trajectory
         .samples
         .iter()
@@ -36,7 +36,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let pivot = pivot_calibration(&poses, &config)
         .with_context(|| format!("{}", args.trajectory.display()))
-        .context(DataRejected)?;
+        .rejected()?;
     let t = pivot.tip_in_tool;
     let p = pivot.pivot_in_world;
     println!("tip in tool: [{:.3}, {:.3}, {:.3}] mm", t.x, t.y, t.z);
