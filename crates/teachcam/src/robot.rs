@@ -90,72 +90,8 @@ pub fn tcp_targets(trajectory: &Trajectory, tip_rotation: &UnitQuaternion<f64>) 
         .collect()
 }
 
-/// Why a pose written as text (`--wobj`, `--tcp`) was refused.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum PoseTextError {
-    /// Not seven comma-separated numbers.
-    #[error("'{text}': {count} values, expected seven numbers x,y,z,qw,qx,qy,qz")]
-    Count {
-        /// The text given.
-        text: String,
-        /// Values found.
-        count: usize,
-    },
-    /// A value is not a finite number.
-    #[error("'{text}': '{value}' is not a finite number")]
-    NotANumber {
-        /// The text given.
-        text: String,
-        /// The offending value.
-        value: String,
-    },
-    /// The quaternion is not of unit norm.
-    #[error("'{text}': qw,qx,qy,qz is not a unit quaternion")]
-    NotUnit {
-        /// The text given.
-        text: String,
-    },
-}
-
-/// A pose from its text form `x,y,z,qw,qx,qy,qz` (millimetres, unit quaternion in RAPID's
-/// order), as `--wobj` and `--tcp` take it.
-///
-/// # Errors
-/// [`PoseTextError`] naming the text and what is wrong in it.
-pub fn parse_pose_text(text: &str) -> Result<Pose, PoseTextError> {
-    let fields: Vec<&str> = text.split(',').map(str::trim).collect();
-    if fields.len() != 7 {
-        return Err(PoseTextError::Count {
-            text: text.to_string(),
-            count: fields.len(),
-        });
-    }
-    let mut values = [0.0; 7];
-    for (slot, field) in values.iter_mut().zip(&fields) {
-        *slot = field
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| PoseTextError::NotANumber {
-                text: text.to_string(),
-                value: (*field).to_string(),
-            })?;
-    }
-    let [x, y, z, w, qx, qy, qz] = values;
-    let rotation = crate::geometry::Quat {
-        w,
-        x: qx,
-        y: qy,
-        z: qz,
-    }
-    .to_rotation()
-    .ok_or_else(|| PoseTextError::NotUnit {
-        text: text.to_string(),
-    })?;
-    Ok(pose_from_parts(nalgebra::Vector3::new(x, y, z), rotation))
-}
-
-/// The text form of a pose, `x,y,z,qw,qx,qy,qz`, that [`parse_pose_text`] reads back
+/// The text form of a pose, `x,y,z,qw,qx,qy,qz`, that [`crate::geometry::parse_pose`]
+/// reads back
 /// (0.001 mm and 1e-9 in the quaternion, no negative zeros).
 #[must_use]
 pub fn pose_text(pose: &Pose) -> String {

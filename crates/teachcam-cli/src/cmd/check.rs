@@ -10,7 +10,7 @@ use teachcam::io::trajectory::read_trajectory;
 use teachcam::robot::check::{CheckConfig, CheckReport, check_path};
 use teachcam::robot::kinematics::RobotModel;
 use teachcam::robot::table::joints_csv;
-use teachcam::robot::{Cell, TcpTarget, parse_pose_text, tcp_targets};
+use teachcam::robot::{Cell, TcpTarget, tcp_targets};
 
 use crate::Rejected;
 
@@ -73,7 +73,7 @@ pub struct Resolved {
 
 /// Parses "x,y,z,qw,qx,qy,qz" into a pose, naming the flag on failure.
 pub fn parse_pose(text: &str, flag: &str) -> anyhow::Result<Pose> {
-    parse_pose_text(text).with_context(|| flag.to_string())
+    teachcam::geometry::parse_pose(text).with_context(|| flag.to_string())
 }
 
 /// Reads the trajectory and the tool, and parses the frames.
