@@ -274,6 +274,16 @@ fn reachable_stroke_passes_and_its_joints_reproduce_every_target() {
     assert!(report.passes(), "{failing:?}");
     assert!(report.suggestions.is_empty());
     assert!(report.peak_speed_ratio > 0.01 && report.peak_speed_ratio < 1.0);
+    let peak_ratio = (0..6)
+        .map(|i| report.peak_joint_speed[i] / model.limits[i].max_speed)
+        .fold(0.0, f64::max);
+    assert!((peak_ratio - report.peak_speed_ratio).abs() < 1e-12);
+    // Accelerations are the differences of speeds: bounded by twice the peak speed over a
+    // frame interval, and non-zero for a moving path.
+    for i in 0..6 {
+        let a = report.peak_joint_acceleration[i];
+        assert!(a > 0.0 && a <= 2.0 * report.peak_joint_speed[i] * 30.0 + 1e-9);
+    }
     // The contract's law on the written table: base_from_flange(joints) * flange_from_tcp
     // = base_from_wobj * wobj_from_tcp, joints read back from the CSV text (6 decimals of a
     // degree: 1.7e-8 rad, i.e. about 1e-5 mm at 600 mm).

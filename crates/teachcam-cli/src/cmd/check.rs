@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use nalgebra::UnitQuaternion;
 use teachcam::geometry::Pose;
 use teachcam::io::trajectory::read_trajectory;
-use teachcam::robot::check::{CheckConfig, CheckReport, check_path};
+use teachcam::robot::check::{CheckConfig, CheckReport, FrameIssue, check_path};
 use teachcam::robot::kinematics::RobotModel;
 use teachcam::robot::table::joints_csv;
 use teachcam::robot::{Cell, TcpTarget, tcp_targets};
@@ -139,6 +139,39 @@ pub fn summary(report: &CheckReport, gaps: usize, robot: &str) -> String {
         report.near_singular_count(),
         100.0 * report.peak_speed_ratio
     );
+    let speeds: Vec<String> = report
+        .peak_joint_speed
+        .iter()
+        .map(|v| format!("{:.0}", v.to_degrees()))
+        .collect();
+    let accelerations: Vec<String> = report
+        .peak_joint_acceleration
+        .iter()
+        .map(|v| format!("{:.0}", v.to_degrees()))
+        .collect();
+    let _ = writeln!(
+        out,
+        "peak joint speeds [{}] deg/s, accelerations [{}] deg/s^2 (axes 1-6)",
+        speeds.join(", "),
+        accelerations.join(", ")
+    );
+    let singular: Vec<String> = report
+        .frames
+        .iter()
+        .filter(|f| {
+            f.issues
+                .iter()
+                .any(|i| matches!(i, FrameIssue::NearSingular { .. }))
+        })
+        .map(|f| f.target.frame.0.to_string())
+        .collect();
+    if !singular.is_empty() {
+        let _ = writeln!(
+            out,
+            "warning: near the wrist singularity at frames {}",
+            singular.join(", ")
+        );
+    }
     for f in &failing {
         let issues: Vec<String> = f
             .issues

@@ -209,6 +209,10 @@ pub struct CheckReport {
     pub peak_speed_ratio: f64,
     /// The largest `|acceleration| / allowed acceleration`, when limits were given.
     pub peak_acceleration_ratio: Option<f64>,
+    /// The largest `|speed|` of each axis over the path, rad/s.
+    pub peak_joint_speed: [f64; 6],
+    /// The largest `|acceleration|` of each axis over the path, rad/s².
+    pub peak_joint_acceleration: [f64; 6],
     /// What would make it run.
     pub suggestions: Vec<Suggestion>,
 }
@@ -351,10 +355,21 @@ pub fn check_path(
         });
         previous = Some((k, solution));
     }
+    let mut peak_joint_speed = [0.0f64; 6];
+    let mut peak_joint_acceleration = [0.0f64; 6];
+    for f in &frames {
+        for axis in 0..6 {
+            peak_joint_speed[axis] = peak_joint_speed[axis].max(f.joint_speed[axis].abs());
+            peak_joint_acceleration[axis] =
+                peak_joint_acceleration[axis].max(f.joint_acceleration[axis].abs());
+        }
+    }
     let mut report = CheckReport {
         frames,
         peak_speed_ratio,
         peak_acceleration_ratio: config.max_acceleration.map(|_| peak_acceleration_ratio),
+        peak_joint_speed,
+        peak_joint_acceleration,
         suggestions: Vec::new(),
     };
     report.suggestions = suggestions(model, cell, targets, &report, config);
