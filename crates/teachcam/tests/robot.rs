@@ -833,3 +833,47 @@ fn pose_text_errors_name_the_problem() {
     let pose = parse_pose(" 350, 0 ,150,1,0,0,0").unwrap();
     assert_eq!(pose.translation.vector, Vector3::new(350.0, 0.0, 150.0));
 }
+
+/// At the singularities the closed form still returns poses that forward kinematics
+/// reproduces: wrist (axis 5 at zero: only q4 + q6 is determined) and shoulder (wrist centre
+/// on axis 1: q1 is free).
+#[test]
+fn inverse_kinematics_at_singularities_reproduces_the_pose() {
+    let model = RobotModel::irb120();
+    let g = &model.geometry;
+    let wrist = Joints::from_degrees([10.0, 20.0, -10.0, 30.0, 0.0, 40.0]);
+    // The shoulder: J2 = 0 and J3 tipping the forearm up to put the wrist centre over axis 1
+    // needs a pose; build it from a wrist centre on the z axis directly.
+    let over_axis_1 = pose_from_parts(
+        Vector3::new(0.0, 0.0, 290.0 + 400.0 + 72.0),
+        UnitQuaternion::identity(),
+    );
+    for (name, pose) in [("wrist", forward(g, &wrist)), ("shoulder", over_axis_1)] {
+        let all = inverse(g, &pose);
+        assert!(!all.is_empty(), "{name}");
+        for s in &all {
+            assert_pose_near(&forward(g, &s.joints), &pose, 1e-7, 1e-9, name);
+        }
+    }
+}
+
+#[test]
+fn non_increasing_time_is_reported_not_divided_by() {
+    let model = RobotModel::irb120();
+    let mut targets = targets(&stroke(1.0, 1.0));
+    targets[10].time_s = targets[9].time_s;
+    let report = check_path(&model, &cell(), &targets, &CheckConfig::default());
+    assert!(!report.passes());
+    assert!(
+        report.frames[10]
+            .issues
+            .iter()
+            .any(|i| matches!(i, FrameIssue::TimeNotIncreasing { .. }))
+    );
+    assert!(
+        report
+            .frames
+            .iter()
+            .all(|f| f.joint_speed.iter().all(|v| v.is_finite()))
+    );
+}

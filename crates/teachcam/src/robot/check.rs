@@ -83,6 +83,13 @@ pub enum FrameIssue {
         /// This frame's `cfx`.
         to: i32,
     },
+    /// The target's time does not follow the previous target's: no speed can be checked.
+    TimeNotIncreasing {
+        /// This target's time, seconds.
+        time_s: f64,
+        /// The previous target's time, seconds.
+        previous_s: f64,
+    },
     /// Axis 5 is near zero: the wrist is near its singularity (a warning, not a failure).
     NearSingular {
         /// Axis 5's angle, radians.
@@ -133,6 +140,10 @@ impl std::fmt::Display for FrameIssue {
             Self::ConfigurationChange { from, to } => {
                 write!(f, "arm configuration changes (cfx {from} -> {to})")
             }
+            Self::TimeNotIncreasing { time_s, previous_s } => write!(
+                f,
+                "time {time_s} s does not follow the previous target's {previous_s} s"
+            ),
             Self::NearSingular { axis5 } => {
                 write!(
                     f,
@@ -299,6 +310,13 @@ pub fn check_path(
         let conf = confdata(&solution.joints, &solution.configuration);
         if let Some((p, before)) = previous {
             let dt = target.time_s - targets[p].time_s;
+            if !(dt > 0.0) {
+                issues.push(FrameIssue::TimeNotIncreasing {
+                    time_s: target.time_s,
+                    previous_s: targets[p].time_s,
+                });
+            }
+            let dt = dt.max(1e-9);
             for (axis, speed) in joint_speed.iter_mut().enumerate() {
                 *speed = (solution.joints.0[axis] - before.joints.0[axis]) / dt;
                 let max_speed = model.limits[axis].max_speed * config.speed_fraction;
@@ -431,7 +449,8 @@ fn step_cost(
 ) -> f64 {
     let mut ratio: f64 = 0.0;
     for axis in 0..6 {
-        let max_step = model.limits[axis].max_speed * config.speed_fraction * dt;
+        // A non-increasing time (reported by the check) costs as a step in a nanosecond.
+        let max_step = model.limits[axis].max_speed * config.speed_fraction * dt.max(1e-9);
         ratio = ratio.max((to.joints.0[axis] - from.joints.0[axis]).abs() / max_step);
     }
     let flip = if same_configuration(&from.configuration, &to.configuration) {
