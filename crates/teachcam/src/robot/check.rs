@@ -310,7 +310,7 @@ pub fn check_path(
         let conf = confdata(&solution.joints, &solution.configuration);
         if let Some((p, before)) = previous {
             let dt = target.time_s - targets[p].time_s;
-            if !(dt > 0.0) {
+            if dt.is_nan() || dt <= 0.0 {
                 issues.push(FrameIssue::TimeNotIncreasing {
                     time_s: target.time_s,
                     previous_s: targets[p].time_s,
