@@ -20,6 +20,8 @@
 //! # Modules, in the order data flows
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
+//! - [`calib`]: chessboard corners, Zhang intrinsics, rig extrinsics and bundle adjustment.
 
+pub mod calib;
 pub mod camera;
 pub mod geometry;

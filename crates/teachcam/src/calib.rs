@@ -1,0 +1,56 @@
+//! Camera calibration: chessboard corners, Zhang's intrinsics, and the whole rig in one world
+//! frame (the paper's §II-A; the world frame on the painted object as in §V-A).
+//!
+//! Model: a planar board with corners `X_k = (c s, r s, 0)` (column `c`, row `r`, square `s`
+//! millimetres) is seen by camera `i` in view `v` at the pixel
+//! `u = project(K_i, d_i, camera_from_world_i * world_from_board_v * X_k)` (see
+//! [`crate::camera`]). Calibration minimises `Σ |u_observed - u|²` over everything unknown:
+//! 1. [`chessboard`]: corners found in photographs, sub-pixel, in OpenCV's order;
+//! 2. [`zhang`]: homographies and Zhang's closed form (Zhang 2000, *A flexible new technique
+//!    for camera calibration*, IEEE TPAMI 22(11));
+//! 3. [`intrinsics`]: Levenberg–Marquardt over `fx, fy, cx, cy, k1, k2, p1, p2, k3` and every
+//!    board pose ([`lm`]);
+//! 4. [`rig`]: extrinsics of N cameras from boards seen by several at once, the world set by
+//!    one board, then a bundle adjustment of all cameras and board poses.
+//! 5. [`camera_file`]: `camera.json`, OpenCV `FileStorage` YAML and ROS `camera_info` YAML.
+
+pub mod camera_file;
+pub mod chessboard;
+pub mod intrinsics;
+pub mod lm;
+pub mod rig;
+pub mod zhang;
+
+use crate::geometry::Point3;
+
+/// A chessboard target: its inner corner grid and square size.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Chessboard {
+    /// Inner corners per row (OpenCV's `pattern_size.width`).
+    pub inner_cols: usize,
+    /// Rows of inner corners (OpenCV's `pattern_size.height`).
+    pub inner_rows: usize,
+    /// Side of a square, millimetres.
+    pub square_mm: f64,
+}
+
+impl Chessboard {
+    /// Number of inner corners.
+    #[must_use]
+    pub const fn corner_count(&self) -> usize {
+        self.inner_cols * self.inner_rows
+    }
+
+    /// The inner corners in the board's frame (z = 0), in OpenCV's order: `(c s, r s, 0)`
+    /// row by row.
+    #[must_use]
+    pub fn corners_in_board(&self) -> Vec<Point3> {
+        (0..self.inner_rows)
+            .flat_map(|r| {
+                (0..self.inner_cols).map(move |c| {
+                    Point3::new(c as f64 * self.square_mm, r as f64 * self.square_mm, 0.0)
+                })
+            })
+            .collect()
+    }
+}
