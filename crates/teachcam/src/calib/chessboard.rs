@@ -86,6 +86,26 @@ pub enum ChessboardError {
     },
 }
 
+/// Gray levels as OpenCV computes them (`cvtColor`, `IMREAD_GRAYSCALE`): ITU-R BT.601 luma
+/// `Y = 0.299 R + 0.587 G + 0.114 B` in OpenCV's 14-bit fixed point, so that corners match
+/// OpenCV's on colour photographs too (the `image` crate's `to_luma8` uses BT.709 weights).
+#[must_use]
+pub fn gray_like_opencv(image: &image::DynamicImage) -> GrayImage {
+    if let image::DynamicImage::ImageLuma8(gray) = image {
+        return gray.clone();
+    }
+    let rgb = image.to_rgb8();
+    let (width, height) = rgb.dimensions();
+    let data = rgb
+        .pixels()
+        .map(|p| {
+            let [r, g, b] = p.0;
+            ((u32::from(r) * 4899 + u32::from(g) * 9617 + u32::from(b) * 1868 + 8192) >> 14) as u8
+        })
+        .collect();
+    GrayImage::from_raw(width, height, data).unwrap_or_else(|| image.to_luma8())
+}
+
 /// Ring of 16 samples at radius 5 px, a quarter turn every 4 samples.
 const RING: [(i32, i32); 16] = [
     (5, 0),
@@ -106,6 +126,26 @@ const RING: [(i32, i32); 16] = [
     (5, -2),
 ];
 const RING_RADIUS: i32 = 5;
+
+/// Ring of 16 samples at radius 3 px, for boards whose squares are under about 20 px.
+const SMALL_RING: [(i32, i32); 16] = [
+    (3, 0),
+    (3, 1),
+    (2, 2),
+    (1, 3),
+    (0, 3),
+    (-1, 3),
+    (-2, 2),
+    (-3, 1),
+    (-3, 0),
+    (-3, -1),
+    (-2, -2),
+    (-1, -3),
+    (0, -3),
+    (1, -3),
+    (2, -2),
+    (3, -1),
+];
 
 /// A gray image as `f32`, row-major.
 struct Plane {
@@ -209,7 +249,7 @@ pub fn find_chessboard_corners(
     let mut largest = 0;
     // Seeds in order of response: a real board's corners are the strongest saddles.
     for seed in 0..candidates.len().min(64) {
-        let Some(lattice) = grow_lattice(&candidates, seed, config) else {
+        let Some(lattice) = grow_lattice(&candidates, seed, 3 * cols * rows, config) else {
             continue;
         };
         largest = largest.max(lattice.len());
@@ -217,11 +257,7 @@ pub fn find_chessboard_corners(
             continue;
         }
         if let Some(grid) = board_window(&lattice, &candidates, &smooth, cols, rows) {
-            let refined = grid
-                .iter()
-                .map(|p| corner_subpix(&raw, *p, config))
-                .collect();
-            return Ok(refined);
+            return Ok(refine_grid(&raw, &grid, cols, config));
         }
     }
     Err(ChessboardError::NotFound {
@@ -238,33 +274,32 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     let r = RING_RADIUS as usize;
     let mut response = vec![0.0f32; w * h];
     let mut max_response = 0.0f32;
-    let offsets: Vec<isize> = RING
-        .iter()
-        .map(|&(dx, dy)| dy as isize * w as isize + dx as isize)
-        .collect();
+    let offsets_of = |ring: &[(i32, i32); 16]| -> Vec<isize> {
+        ring.iter()
+            .map(|&(dx, dy)| dy as isize * w as isize + dx as isize)
+            .collect()
+    };
+    let rings = [offsets_of(&RING), offsets_of(&SMALL_RING)];
     for y in r..h - r {
         for x in r..w - r {
             let centre = (y * w + x) as isize;
-            let mut ring = [0.0f32; 16];
-            for (value, offset) in ring.iter_mut().zip(&offsets) {
-                *value = plane.data[(centre + offset) as usize];
-            }
-            let mut sum_response = 0.0;
-            for n in 0..4 {
-                sum_response += (ring[n] + ring[n + 8] - ring[n + 4] - ring[n + 12]).abs();
-            }
-            let mut diff_response = 0.0;
-            for n in 0..8 {
-                diff_response += (ring[n] - ring[n + 8]).abs();
-            }
-            let ring_mean = ring.iter().sum::<f32>() / 16.0;
             let local_mean = (plane.at(x, y)
                 + plane.at(x - 1, y)
                 + plane.at(x + 1, y)
                 + plane.at(x, y - 1)
                 + plane.at(x, y + 1))
                 / 5.0;
-            let value = sum_response - diff_response - 16.0 * (ring_mean - local_mean).abs();
+            // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
+            let value = rings
+                .iter()
+                .map(|offsets| {
+                    let mut ring = [0.0f32; 16];
+                    for (value, offset) in ring.iter_mut().zip(offsets) {
+                        *value = plane.data[(centre + offset) as usize];
+                    }
+                    chess_response(&ring, local_mean)
+                })
+                .fold(f32::MIN, f32::max);
             if value > 0.0 {
                 response[y * w + x] = value;
                 max_response = max_response.max(value);
@@ -318,6 +353,21 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     candidates
 }
 
+/// ChESS response of a 16-sample ring around a pixel whose 5-pixel cross averages
+/// `local_mean`.
+fn chess_response(ring: &[f32; 16], local_mean: f32) -> f32 {
+    let mut sum_response = 0.0;
+    for n in 0..4 {
+        sum_response += (ring[n] + ring[n + 8] - ring[n + 4] - ring[n + 12]).abs();
+    }
+    let mut diff_response = 0.0;
+    for n in 0..8 {
+        diff_response += (ring[n] - ring[n + 8]).abs();
+    }
+    let ring_mean = ring.iter().sum::<f32>() / 16.0;
+    sum_response - diff_response - 16.0 * (ring_mean - local_mean).abs()
+}
+
 fn distance2(a: &Candidate, bx: f64, by: f64) -> f64 {
     (a.x - bx).powi(2) + (a.y - by).powi(2)
 }
@@ -343,7 +393,12 @@ fn nearest(candidates: &[Candidate], x: f64, y: f64, radius: f64, used: &[bool])
 type Lattice = BTreeMap<(i32, i32), usize>;
 
 /// Grows the lattice through `seed`; `None` when the seed does not look like a lattice node.
-fn grow_lattice(candidates: &[Candidate], seed: usize, config: &CornerConfig) -> Option<Lattice> {
+fn grow_lattice(
+    candidates: &[Candidate],
+    seed: usize,
+    max_nodes: usize,
+    config: &CornerConfig,
+) -> Option<Lattice> {
     let s = candidates[seed];
     let mut near: Vec<(f64, usize)> = candidates
         .iter()
@@ -388,6 +443,10 @@ fn grow_lattice(candidates: &[Candidate], seed: usize, config: &CornerConfig) ->
     steps.insert((0, 0), [u, v]);
     let mut queue = VecDeque::from([(0i32, 0i32)]);
     while let Some((i, j)) = queue.pop_front() {
+        if lattice.len() >= max_nodes {
+            // Grown over clutter or a weak-response field: no board of this size here.
+            return None;
+        }
         let p = candidates[lattice[&(i, j)]];
         let node_steps = steps[&(i, j)];
         for (axis, sign) in [(0usize, 1i32), (0, -1), (1, 1), (1, -1)] {
@@ -405,7 +464,8 @@ fn grow_lattice(candidates: &[Candidate], seed: usize, config: &CornerConfig) ->
                 }
             };
             let radius = config.step_tolerance * step.0.hypot(step.1);
-            let Some(found) = nearest(candidates, p.x + step.0, p.y + step.1, radius, &used) else {
+            let (x, y) = (p.x + step.0, p.y + step.1);
+            let Some(found) = nearest(candidates, x, y, radius, &used) else {
                 continue;
             };
             used[found] = true;
@@ -577,10 +637,43 @@ fn opencv_order(mut grid: Vec<Vec<Pixel>>, plane: &Plane) -> Vec<Pixel> {
     grid.into_iter().flatten().collect()
 }
 
+/// Sub-pixel corners: first with a window a quarter of the local square (so that no other
+/// corner falls inside it, as OpenCV refines inside `findChessboardCorners`), then with the
+/// configured window.
+fn refine_grid(plane: &Plane, grid: &[Pixel], cols: usize, config: &CornerConfig) -> Vec<Pixel> {
+    grid.iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let (r, c) = (k / cols, k % cols);
+            let rows = grid.len() / cols;
+            let mut square = f64::INFINITY;
+            for (rr, cc) in [
+                (r.wrapping_sub(1), c),
+                (r + 1, c),
+                (r, c.wrapping_sub(1)),
+                (r, c + 1),
+            ] {
+                if rr < rows && cc < cols {
+                    square = square.min(p.distance(&grid[rr * cols + cc]));
+                }
+            }
+            let coarse_half =
+                ((square / 4.0).round() as usize).clamp(2, config.subpix_half_window_px);
+            let coarse = corner_subpix(plane, *p, coarse_half, config);
+            corner_subpix(plane, coarse, config.subpix_half_window_px, config)
+        })
+        .collect()
+}
+
 /// OpenCV's `cornerSubPix` with no dead zone: iterate
 /// `q ← (Σ w g gᵀ)⁻¹ Σ w g gᵀ p` over a `(2h+1)²` window resampled around `q`.
-fn corner_subpix(plane: &Plane, start: Pixel, config: &CornerConfig) -> Pixel {
-    let half = config.subpix_half_window_px as i32;
+fn corner_subpix(
+    plane: &Plane,
+    start: Pixel,
+    half_window_px: usize,
+    config: &CornerConfig,
+) -> Pixel {
+    let half = half_window_px as i32;
     let side = (2 * half + 1) as usize;
     let buffer_side = side + 2;
     let mut mask = vec![0.0f64; side * side];
