@@ -54,3 +54,78 @@ impl Chessboard {
             .collect()
     }
 }
+
+/// The corners of one target seen in one image, in the target's point order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoardView {
+    /// What the view is called in messages and reports (its image file).
+    pub name: String,
+    /// One pixel per target point.
+    pub corners: Vec<crate::geometry::Pixel>,
+}
+
+/// Why a calibration was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CalibError {
+    /// Not enough views for the unknowns.
+    #[error("{views} usable views, calibration needs at least {needed}")]
+    TooFewViews {
+        /// Views given.
+        views: usize,
+        /// Views needed.
+        needed: usize,
+    },
+    /// A view's corner count differs from the target's.
+    #[error("view {view}: {found} corners, the target has {expected}")]
+    CornerCount {
+        /// The view.
+        view: String,
+        /// Corners in the view.
+        found: usize,
+        /// Points of the target.
+        expected: usize,
+    },
+    /// A corner is NaN or infinite.
+    #[error("view {view}: corner {corner} is not finite")]
+    NotFinite {
+        /// The view.
+        view: String,
+        /// Index of the corner.
+        corner: usize,
+    },
+    /// The target's points are not all on z = 0.
+    #[error("target point {point} is not on the plane z = 0")]
+    NotPlanar {
+        /// Index of the point.
+        point: usize,
+    },
+    /// One view's corners determine no board pose (collinear corners).
+    #[error("view {view}: the corners are degenerate (collinear); no board pose")]
+    DegenerateView {
+        /// The view.
+        view: String,
+    },
+    /// The views together do not determine the camera (boards all parallel).
+    #[error(
+        "the views are degenerate (boards all parallel to each other or to the image): the camera is not determined; tilt the board between views"
+    )]
+    DegenerateViews,
+    /// The optimisation ended somewhere meaningless.
+    #[error("calibration diverged: {detail}")]
+    Diverged {
+        /// What was wrong.
+        detail: String,
+    },
+    /// A camera of the rig is linked to the world by no chain of shared views.
+    #[error("camera {camera} shares no board view with the cameras linked to the world frame")]
+    Unlinked {
+        /// The camera's name.
+        camera: String,
+    },
+    /// The view chosen to set the world frame is not among the views.
+    #[error("world view {view} is not among the views")]
+    UnknownWorldView {
+        /// The view.
+        view: String,
+    },
+}

@@ -4,9 +4,12 @@
 use std::path::PathBuf;
 
 use serde_json::Value;
-use teachcam::calib::Chessboard;
 use teachcam::calib::chessboard::{CornerConfig, find_chessboard_corners, gray_like_opencv};
+use teachcam::calib::intrinsics::{IntrinsicCalibration, IntrinsicsConfig, calibrate_intrinsics};
+use teachcam::calib::{BoardView, Chessboard};
+use teachcam::camera::ImageSize;
 use teachcam::geometry::Pixel;
+use teachcam::geometry::Point3;
 
 /// `../shared/data/calib`, or `None` (test skipped) when absent outside CI.
 fn calib_data() -> Option<PathBuf> {
@@ -118,4 +121,203 @@ fn corners_match_opencv_on_real_photographs() {
     // stopping rule (0.001 px); a wrong order or a wrong corner would be ≥ 20 px.
     assert!(mean < 0.02, "mean difference {mean} px");
     assert!(max < 0.1, "max difference {max} px");
+}
+
+fn f(value: &Value) -> f64 {
+    value.as_f64().unwrap_or(f64::NAN)
+}
+
+fn left_names(reference: &Value) -> Vec<String> {
+    reference["calibrate_left"]["views"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(str::to_owned))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn calibrate(views: &[BoardView], config: &IntrinsicsConfig) -> IntrinsicCalibration {
+    let size = ImageSize {
+        width: 640,
+        height: 480,
+    };
+    calibrate_intrinsics(&BOARD.corners_in_board(), views, size, config)
+        .unwrap_or_else(|e| panic!("calibration failed: {e}"))
+}
+
+fn report(label: &str, c: &IntrinsicCalibration, opencv: &Value) {
+    let i = c.camera.intrinsics;
+    eprintln!(
+        "{label}: fx {:.4} ({:.4}) fy {:.4} ({:.4}) cx {:.4} ({:.4}) cy {:.4} ({:.4}) rms {:.5} ({:.5}) dist {:?} iterations {}",
+        i.fx,
+        f(&opencv["fx"]),
+        i.fy,
+        f(&opencv["fy"]),
+        i.cx,
+        f(&opencv["cx"]),
+        i.cy,
+        f(&opencv["cy"]),
+        c.rms_px,
+        f(&opencv["rms_px"]),
+        c.camera.distortion.to_opencv(),
+        c.iterations
+    );
+}
+
+/// Same corners as OpenCV → the same minimum: differences only from the stopping rules.
+#[test]
+fn intrinsics_match_opencv_with_opencv_corners() {
+    let reference = reference();
+    let opencv = &reference["calibrate_left"];
+    let views: Vec<BoardView> = left_names(&reference)
+        .iter()
+        .map(|name| BoardView {
+            name: name.clone(),
+            corners: reference_corners(&reference, &format!("opencv-stereo-9x6/{name}"))
+                .unwrap_or_else(|| panic!("{name}: no reference corners")),
+        })
+        .collect();
+    assert_eq!(views.len(), 13);
+    let c = calibrate(&views, &IntrinsicsConfig::default());
+    report("left, OpenCV corners", &c, opencv);
+    let i = c.camera.intrinsics;
+    assert!((i.fx / f(&opencv["fx"]) - 1.0).abs() < 1e-4);
+    assert!((i.fy / f(&opencv["fy"]) - 1.0).abs() < 1e-4);
+    assert!((i.cx - f(&opencv["cx"])).abs() < 0.05);
+    assert!((i.cy - f(&opencv["cy"])).abs() < 0.05);
+    assert!((c.rms_px / f(&opencv["rms_px"]) - 1.0).abs() < 1e-4);
+    for (ours, theirs) in c
+        .views
+        .iter()
+        .zip(opencv["per_view_rms_px"].as_array().into_iter().flatten())
+    {
+        assert!(
+            (ours.rms_px - f(theirs)).abs() < 1e-3,
+            "{}: {} vs {}",
+            ours.name,
+            ours.rms_px,
+            f(theirs)
+        );
+    }
+    for (ours, theirs) in c
+        .camera
+        .distortion
+        .to_opencv()
+        .iter()
+        .zip(opencv["distortion"].as_array().into_iter().flatten())
+    {
+        assert!(
+            (ours - f(theirs)).abs() < 2e-3,
+            "distortion {ours} vs {}",
+            f(theirs)
+        );
+    }
+    // left02 is the known worst view (SOURCE.md): RMS 1.22 px against a median of 0.19.
+    assert_eq!(c.outlier_views, vec!["left02.jpg".to_owned()]);
+}
+
+/// The acceptance numbers, with our own corners from the photographs.
+#[test]
+fn intrinsics_match_opencv_with_our_corners() {
+    let Some(data) = calib_data() else { return };
+    let reference = reference();
+    let opencv = &reference["calibrate_left"];
+    let config = CornerConfig::default();
+    let views: Vec<BoardView> = left_names(&reference)
+        .iter()
+        .map(|name| {
+            let image = load_gray(&data.join("opencv-stereo-9x6").join(name));
+            BoardView {
+                name: name.clone(),
+                corners: find_chessboard_corners(&image, &BOARD, &config)
+                    .unwrap_or_else(|e| panic!("{name}: {e}")),
+            }
+        })
+        .collect();
+    let c = calibrate(&views, &IntrinsicsConfig::default());
+    report("left, our corners", &c, opencv);
+    let i = c.camera.intrinsics;
+    assert!((i.fx / f(&opencv["fx"]) - 1.0).abs() < 0.005);
+    assert!((i.fy / f(&opencv["fy"]) - 1.0).abs() < 0.005);
+    assert!((i.cx - f(&opencv["cx"])).abs() < 2.0);
+    assert!((i.cy - f(&opencv["cy"])).abs() < 2.0);
+    assert!(c.rms_px <= 1.1 * f(&opencv["rms_px"]));
+}
+
+/// Zhang's data files: `Model.txt` (4 corners per square, inches) and `data1..5.txt`.
+fn zhang_views(data: &std::path::Path) -> (Vec<Point3>, Vec<BoardView>) {
+    let numbers = |name: &str| -> Vec<f64> {
+        let path = data.join("zhang-msr-1998").join(name);
+        std::fs::read_to_string(&path)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+            .split_whitespace()
+            .map(|t| {
+                t.parse()
+                    .unwrap_or_else(|e| panic!("{}: {t}: {e}", path.display()))
+            })
+            .collect()
+    };
+    let model: Vec<Point3> = numbers("Model.txt")
+        .chunks(2)
+        .map(|p| Point3::new(p[0], p[1], 0.0))
+        .collect();
+    let views = (1..=5)
+        .map(|k| BoardView {
+            name: format!("data{k}.txt"),
+            corners: numbers(&format!("data{k}.txt"))
+                .chunks(2)
+                .map(|p| Pixel::new(p[0], p[1]))
+                .collect(),
+        })
+        .collect();
+    (model, views)
+}
+
+/// Zhang's own corner files, his model (k1, k2): OpenCV's numbers with the same model, and his
+/// published ones within what his extra skew parameter (γ = 0.2045) and the estimate's
+/// standard errors allow.
+#[test]
+fn zhang_published_parameters() {
+    let Some(data) = calib_data() else { return };
+    let reference = reference();
+    let opencv = &reference["zhang_opencv"];
+    let (model, views) = zhang_views(&data);
+    let config = IntrinsicsConfig {
+        fix_k3: true,
+        fix_tangential: true,
+        ..IntrinsicsConfig::default()
+    };
+    let size = ImageSize {
+        width: 640,
+        height: 480,
+    };
+    let c = calibrate_intrinsics(&model, &views, size, &config).unwrap_or_else(|e| panic!("{e}"));
+    report("zhang", &c, opencv);
+    eprintln!("standard errors {:?}", c.standard_errors);
+    let i = c.camera.intrinsics;
+    let d = c.camera.distortion;
+    // Same model, same data as OpenCV: same minimum.
+    assert!((i.fx / f(&opencv["fx"]) - 1.0).abs() < 1e-5);
+    assert!((i.fy / f(&opencv["fy"]) - 1.0).abs() < 1e-5);
+    assert!((i.cx - f(&opencv["cx"])).abs() < 0.01);
+    assert!((i.cy - f(&opencv["cy"])).abs() < 0.01);
+    // Zhang's published values (SOURCE.md), his model having a skew term ours lacks: within
+    // three standard errors of our estimate.
+    let published = [832.5, 832.53, 303.959, 206.585, -0.228601, 0.190353];
+    let ours = [i.fx, i.fy, i.cx, i.cy, d.k1, d.k2];
+    let se = c.standard_errors;
+    for (k, (o, p)) in ours.iter().zip(published).enumerate() {
+        let sigma = se[k];
+        eprintln!(
+            "param {k}: ours {o:.5}, Zhang {p:.5}, diff {:.5}, 3σ {:.5}",
+            o - p,
+            3.0 * sigma
+        );
+        assert!(
+            (o - p).abs() < 3.0 * sigma,
+            "parameter {k}: {o} vs Zhang's {p}"
+        );
+    }
 }
