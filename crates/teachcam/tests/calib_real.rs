@@ -6,10 +6,10 @@ use std::path::PathBuf;
 use serde_json::Value;
 use teachcam::calib::chessboard::{CornerConfig, find_chessboard_corners, gray_like_opencv};
 use teachcam::calib::intrinsics::{IntrinsicCalibration, IntrinsicsConfig, calibrate_intrinsics};
+use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig};
 use teachcam::calib::{BoardView, Chessboard};
-use teachcam::camera::ImageSize;
-use teachcam::geometry::Pixel;
-use teachcam::geometry::Point3;
+use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
+use teachcam::geometry::{CameraId, Pixel, Point3, Pose};
 
 /// `../shared/data/calib`, or `None` (test skipped) when absent outside CI.
 fn calib_data() -> Option<PathBuf> {
@@ -320,4 +320,134 @@ fn zhang_published_parameters() {
             "parameter {k}: {o} vs Zhang's {p}"
         );
     }
+}
+
+fn opencv_camera(name: &str, calibration: &Value) -> Camera {
+    let d: Vec<f64> = calibration["distortion"]
+        .as_array()
+        .map(|a| a.iter().map(f).collect())
+        .unwrap_or_default();
+    Camera {
+        name: name.to_owned(),
+        image_size: ImageSize {
+            width: 640,
+            height: 480,
+        },
+        intrinsics: Intrinsics {
+            fx: f(&calibration["fx"]),
+            fy: f(&calibration["fy"]),
+            cx: f(&calibration["cx"]),
+            cy: f(&calibration["cy"]),
+        },
+        distortion: Distortion::from_opencv([d[0], d[1], d[2], d[3], d[4]]),
+        camera_from_world: Pose::identity(),
+    }
+}
+
+fn stereo_observations(
+    corners: impl Fn(&str) -> Vec<Pixel>,
+    names: &[String],
+) -> Vec<RigObservation> {
+    let mut observations = Vec::new();
+    for left in names {
+        let right = left.replacen("left", "right", 1);
+        for (camera, file) in [(CameraId(0), left.clone()), (CameraId(1), right)] {
+            observations.push(RigObservation {
+                camera,
+                view: left.trim_start_matches("left").to_owned(),
+                corners: corners(&file),
+            });
+        }
+    }
+    observations
+}
+
+/// The stereo pair with OpenCV's corners and intrinsics: `cv2.stereoCalibrate`
+/// (`CALIB_FIX_INTRINSIC`) minimises the same cost, so the same `R`, `T`.
+#[test]
+fn stereo_extrinsics_match_opencv() {
+    let reference = reference();
+    let names = left_names(&reference);
+    let cameras = [
+        opencv_camera("left", &reference["calibrate_left"]),
+        opencv_camera("right", &reference["calibrate_right"]),
+    ];
+    let observations = stereo_observations(
+        |file| {
+            reference_corners(&reference, &format!("opencv-stereo-9x6/{file}"))
+                .unwrap_or_else(|| panic!("{file}: no reference corners"))
+        },
+        &names,
+    );
+    let result = calibrate_rig(
+        &BOARD.corners_in_board(),
+        &cameras,
+        &observations,
+        &WorldFrame::Camera(CameraId(0)),
+        &RigConfig::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let right_from_left = result.rig.cameras[1].camera_from_world;
+    let t = right_from_left.translation.vector;
+    let opencv_t: Vec<f64> = reference["stereo"]["translation_mm"]
+        .as_array()
+        .map(|a| a.iter().map(f).collect())
+        .unwrap_or_default();
+    let baseline = t.norm();
+    let opencv_baseline = f(&reference["stereo"]["baseline_mm"]);
+    eprintln!(
+        "stereo: T {:.4?} (OpenCV {opencv_t:.4?}), baseline {baseline:.4} mm (OpenCV {opencv_baseline:.4}), rms {:.4} px (OpenCV {:.4}), per camera {:?}",
+        t.as_slice(),
+        result.rms_px,
+        f(&reference["stereo"]["rms_px"]),
+        result.cameras
+    );
+    for k in 0..3 {
+        assert!((t[k] - opencv_t[k]).abs() < 0.01, "T[{k}]");
+    }
+    assert!((result.rms_px / f(&reference["stereo"]["rms_px"]) - 1.0).abs() < 1e-3);
+}
+
+/// The acceptance: our corners and our intrinsics give OpenCV's baseline within 1 %.
+#[test]
+fn stereo_baseline_with_our_corners() {
+    let Some(data) = calib_data() else { return };
+    let reference = reference();
+    let names = left_names(&reference);
+    let config = CornerConfig::default();
+    let find = |file: &str| {
+        let image = load_gray(&data.join("opencv-stereo-9x6").join(file));
+        find_chessboard_corners(&image, &BOARD, &config).unwrap_or_else(|e| panic!("{file}: {e}"))
+    };
+    let observations = stereo_observations(find, &names);
+    let mut cameras = Vec::new();
+    for (id, name) in [(0, "left"), (1, "right")] {
+        let views: Vec<BoardView> = observations
+            .iter()
+            .filter(|o| o.camera == CameraId(id))
+            .map(|o| BoardView {
+                name: o.view.clone(),
+                corners: o.corners.clone(),
+            })
+            .collect();
+        let mut camera = calibrate(&views, &IntrinsicsConfig::default()).camera;
+        camera.name = name.to_owned();
+        cameras.push(camera);
+    }
+    let result = calibrate_rig(
+        &BOARD.corners_in_board(),
+        &cameras,
+        &observations,
+        &WorldFrame::Camera(CameraId(0)),
+        &RigConfig::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let baseline = result.rig.cameras[1]
+        .camera_from_world
+        .translation
+        .vector
+        .norm();
+    let opencv_baseline = f(&reference["stereo"]["baseline_mm"]);
+    eprintln!("stereo, our corners: baseline {baseline:.4} mm (OpenCV {opencv_baseline:.4})");
+    assert!((baseline / opencv_baseline - 1.0).abs() < 0.01);
 }
