@@ -81,6 +81,11 @@ pub struct CameraResidual {
     pub rms_px: f64,
     /// Board views it saw.
     pub views: usize,
+    /// One standard error of its orientation in the world, degrees: `sqrt(trace Cov(ω))`
+    /// from `σ² (JᵀJ)⁻¹` of the adjustment (0 for the camera that defines the world).
+    pub rotation_std_deg: f64,
+    /// One standard error of its centre in the world, millimetres: `sqrt(trace Cov(c))`.
+    pub centre_std_mm: f64,
 }
 
 /// A calibrated rig.
@@ -460,6 +465,29 @@ pub fn calibrate_rig(
             detail: "the reprojection error is not finite".to_owned(),
         });
     }
+    let dof = 2.0 * total_corners as f64 - problem.layout.count as f64;
+    let sigma2 = if dof > 0.0 {
+        report.final_cost / dof
+    } else {
+        f64::NAN
+    };
+    let covariance = report.jtj.clone().try_inverse();
+    // Camera centre c = -Rᵀt moves by -Rᵀτ under the left perturbation (ω, τ), so its
+    // covariance is Rᵀ Cov(τ) R, whose trace is that of Cov(τ).
+    let pose_std = |c: usize| -> (f64, f64) {
+        match (&covariance, problem.layout.camera_pose[c]) {
+            (Some(cov), Some(o)) => {
+                let rotation: f64 = (o..o + 3).map(|i| cov[(i, i)]).sum();
+                let centre: f64 = (o + 3..o + 6).map(|i| cov[(i, i)]).sum();
+                (
+                    (rotation.max(0.0) * sigma2).sqrt().to_degrees(),
+                    (centre.max(0.0) * sigma2).sqrt(),
+                )
+            }
+            (None, Some(_)) => (f64::NAN, f64::NAN),
+            (_, None) => (0.0, 0.0),
+        }
+    };
     let mut rig_cameras = Vec::with_capacity(cameras.len());
     let mut residuals = Vec::with_capacity(cameras.len());
     for (c, camera) in cameras.iter().enumerate() {
@@ -483,10 +511,13 @@ pub fn calibrate_rig(
             });
         }
         let views = observations.iter().filter(|o| o.camera.0 == c).count();
+        let (rotation_std_deg, centre_std_mm) = pose_std(c);
         residuals.push(CameraResidual {
             name: camera.name.clone(),
             rms_px: (sums[c].0 / sums[c].1.max(1) as f64).sqrt(),
             views,
+            rotation_std_deg,
+            centre_std_mm,
         });
         rig_cameras.push(calibrated);
     }
