@@ -1,3 +1,7 @@
 //! One module per subcommand.
 
 pub mod demo;
+pub mod simulate;
+pub mod tool_check;
+pub mod uncertainty;
+pub mod uncertainty_map;

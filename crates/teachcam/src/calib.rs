@@ -12,9 +12,10 @@
 //!    board pose ([`lm`]);
 //! 4. [`rig`]: extrinsics of N cameras from boards seen by several at once, the world set by
 //!    one board, then a bundle adjustment of all cameras and board poses.
-//! 5. [`camera_file`]: `camera.json`, OpenCV `FileStorage` YAML and ROS `camera_info` YAML.
+//!
+//! One camera's result is written by [`crate::io::camera_file`] (`camera.json`, OpenCV
+//! `FileStorage` YAML, ROS `camera_info` YAML).
 
-pub mod camera_file;
 pub mod chessboard;
 pub mod intrinsics;
 pub mod lm;

@@ -351,7 +351,7 @@ pub fn fundamental_matrix(from: &Camera, to: &Camera) -> Matrix3<f64> {
 pub fn epipolar_line(fundamental: &Matrix3<f64>, ideal_in_from: &Pixel) -> Option<EpipolarLine> {
     let l = fundamental * Vector3::new(ideal_in_from.x, ideal_in_from.y, 1.0);
     let norm = l.x.hypot(l.y);
-    if !(norm > f64::EPSILON) || !l.z.is_finite() {
+    if norm.is_nan() || norm <= f64::EPSILON || !l.z.is_finite() {
         return None;
     }
     Some(EpipolarLine {

@@ -1,0 +1,136 @@
+//! `tool.json`: the tool's markers and tip (CONTRACT.md, "Tool file").
+//!
+//! ```json
+//! {"name": "brush", "marker_diameter_mm": 10.0,
+//!  "markers": [[0, 0, 0], [62, 8, 0], [18, 47, 9], [-26, 71, 22]],
+//!  "tip": [0, -15, -180], "tip_rotation": [1, 0, 0, 0]}
+//! ```
+//! `tip_rotation` (optional, `qw, qx, qy, qz`) turns the TCP frame relative to the tool frame.
+
+use std::path::Path;
+
+use nalgebra::UnitQuaternion;
+use serde::{Deserialize, Serialize};
+
+use super::{FileError, parse_json, read_text, write_json};
+use crate::geometry::{Point3, Quat, pose_from_parts};
+use crate::tool::Tool;
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ToolFile {
+    name: String,
+    marker_diameter_mm: f64,
+    markers: Vec<[f64; 3]>,
+    tip: [f64; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    tip_rotation: Option<[f64; 4]>,
+}
+
+/// Reads and checks a tool file.
+///
+/// # Errors
+/// [`FileError`] naming the file and the field: unreadable, not JSON, a missing key, a
+/// non-unit `tip_rotation`, or a tool that cannot be tracked ([`crate::tool::ToolError`]).
+pub fn read_tool(path: &Path) -> Result<Tool, FileError> {
+    let file: ToolFile = parse_json(path, &read_text(path)?)?;
+    let rotation = match file.tip_rotation {
+        None => UnitQuaternion::identity(),
+        Some([w, x, y, z]) => Quat { w, x, y, z }.to_rotation().ok_or_else(|| {
+            FileError::invalid(
+                path,
+                "tip_rotation is not a finite unit quaternion (qw, qx, qy, qz)",
+            )
+        })?,
+    };
+    let markers = file
+        .markers
+        .iter()
+        .map(|m| Point3::new(m[0], m[1], m[2]))
+        .collect();
+    let tool_from_tcp = pose_from_parts(nalgebra::Vector3::from(file.tip), rotation);
+    Tool::new(file.name, file.marker_diameter_mm, markers, tool_from_tcp)
+        .map_err(|e| FileError::invalid(path, e.to_string()))
+}
+
+/// Writes a tool file whole.
+///
+/// # Errors
+/// [`FileError::Write`].
+pub fn write_tool(path: &Path, tool: &Tool) -> Result<(), FileError> {
+    let rotation = tool.tool_from_tcp.rotation;
+    let file = ToolFile {
+        name: tool.name.clone(),
+        marker_diameter_mm: tool.marker_diameter_mm,
+        markers: tool
+            .markers_in_tool
+            .iter()
+            .map(|p| [p.x, p.y, p.z])
+            .collect(),
+        tip: tool.tool_from_tcp.translation.vector.into(),
+        tip_rotation: (rotation.angle() > 0.0).then(|| Quat::from_rotation(&rotation).to_array()),
+    };
+    write_json(path, &file)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, text: &str) -> std::path::PathBuf {
+        let path = dir.join("tool.json");
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn reads_the_contract_example_and_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(
+            dir.path(),
+            r#"{"name": "brush", "marker_diameter_mm": 10.0,
+            "markers": [[0, 0, 0], [62, 8, 0], [18, 47, 9], [-26, 71, 22]], "tip": [0, -15, -180]}"#,
+        );
+        let tool = read_tool(&path).unwrap();
+        assert_eq!(tool.markers_in_tool.len(), 4);
+        assert_eq!(tool.tip_in_tool(), Point3::new(0.0, -15.0, -180.0));
+        let out = dir.path().join("out.json");
+        write_tool(&out, &tool).unwrap();
+        assert_eq!(read_tool(&out).unwrap(), tool);
+    }
+
+    #[test]
+    fn refuses_bad_files_naming_the_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let cases = [
+            (
+                r#"{"name": "b", "marker_diameter_mm": 10, "markers": [[0,0,0],[50,0,0],[0,50,0]]}"#,
+                "tip",
+            ),
+            (
+                r#"{"name": "b", "marker_diameter_mm": 10, "markers": [[0,0,0],[50,0,0]], "tip": [0,0,0]}"#,
+                "at least 3",
+            ),
+            (
+                r#"{"name": "b", "marker_diameter_mm": 10, "markers": [[0,0,0],[50,0,0],[100,0,0]], "tip": [0,0,0]}"#,
+                "collinear",
+            ),
+            (
+                r#"{"name": "b", "marker_diameter_mm": 10, "markers": [[0,0,0],[50,0,0],[0,50,0]], "tip": [0,0,0], "tip_rotation": [1,1,0,0]}"#,
+                "tip_rotation",
+            ),
+            (
+                r#"{"name": "b", "marker_diameter_mm": 10, "markers": [[0,0,0],[50,0],[0,50,0]], "tip": [0,0,0]}"#,
+                "line 1",
+            ),
+            ("not json", "tool.json"),
+        ];
+        for (text, needle) in cases {
+            let message = read_tool(&write(dir.path(), text)).unwrap_err().to_string();
+            assert!(
+                message.contains(needle) && message.contains("tool.json"),
+                "{text} -> {message}"
+            );
+        }
+    }
+}

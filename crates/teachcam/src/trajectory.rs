@@ -1,0 +1,173 @@
+//! A tool trajectory: one sample per recorded frame, each with the tool's pose or an explicit
+//! gap.
+//!
+//! Model (paper §II-C, §III): tracking queues `world_from_tool` over time; the tip is
+//! `world_from_tool * tip_in_tool`. Frames without a pose keep their sample with `pose: None`
+//! so that gaps stay visible to every later stage and in every file.
+
+use std::ops::Range;
+
+use crate::geometry::{FrameIndex, Point3, Pose, Quat};
+
+/// The tool's pose in one frame, with how it was measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolPose {
+    /// The tool frame in the world (work-object) frame.
+    pub world_from_tool: Pose,
+    /// The tool centre point in the world frame, millimetres.
+    pub tip_in_world: Point3,
+    /// How many identified markers the pose used.
+    pub markers: usize,
+    /// RMS distance between the registered model markers and the measured ones, millimetres.
+    pub rms_mm: f64,
+}
+
+/// Where a sample's pose came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PoseSource {
+    /// Measured (tracked, or smoothed from measurements at this frame).
+    #[default]
+    Measured,
+    /// Filled across a short gap by the smoother: no measurement at this frame.
+    Filled,
+}
+
+/// One frame of a trajectory.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Frame number in the recording.
+    pub frame: FrameIndex,
+    /// Time of the frame, seconds from the recording's start.
+    pub time_s: f64,
+    /// The pose, `None` for a frame without one (a gap).
+    pub pose: Option<ToolPose>,
+    /// Whether the pose was measured or filled.
+    pub source: PoseSource,
+    /// Standard uncertainty of the tip position (RMS over the three axes), millimetres, when
+    /// an uncertainty estimate was made.
+    pub tip_std_mm: Option<f64>,
+}
+
+impl Sample {
+    /// A sample without a pose.
+    #[must_use]
+    pub fn gap(frame: FrameIndex, time_s: f64) -> Self {
+        Self {
+            frame,
+            time_s,
+            pose: None,
+            source: PoseSource::Measured,
+            tip_std_mm: None,
+        }
+    }
+
+    /// A measured sample.
+    #[must_use]
+    pub fn measured(frame: FrameIndex, time_s: f64, pose: ToolPose) -> Self {
+        Self {
+            frame,
+            time_s,
+            pose: Some(pose),
+            source: PoseSource::Measured,
+            tip_std_mm: None,
+        }
+    }
+}
+
+/// Samples in frame order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Trajectory {
+    /// One sample per frame, frames increasing.
+    pub samples: Vec<Sample>,
+}
+
+impl Trajectory {
+    /// Number of samples, gaps included.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// True when there are no samples.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+
+    /// The runs of consecutive samples that have a pose, as index ranges into `samples`.
+    #[must_use]
+    pub fn segments(&self) -> Vec<Range<usize>> {
+        let mut segments = Vec::new();
+        let mut start = None;
+        for (i, s) in self.samples.iter().enumerate() {
+            match (s.pose.is_some(), start) {
+                (true, None) => start = Some(i),
+                (false, Some(b)) => {
+                    segments.push(b..i);
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(b) = start {
+            segments.push(b..self.samples.len());
+        }
+        segments
+    }
+
+    /// The sampling rate from the first and last time stamps, `None` with fewer than two
+    /// samples or a non-increasing time.
+    #[must_use]
+    pub fn sample_rate_hz(&self) -> Option<f64> {
+        let (first, last) = (self.samples.first()?, self.samples.last()?);
+        let span = last.time_s - first.time_s;
+        (self.samples.len() > 1 && span > 0.0).then(|| (self.samples.len() - 1) as f64 / span)
+    }
+
+    /// The written quaternion of every sample with a pose: `qw >= 0` at the start of each
+    /// segment, then the sign that keeps each quaternion on the previous one's hemisphere
+    /// (CONTRACT.md, "Conventions").
+    #[must_use]
+    pub fn continuous_quaternions(&self) -> Vec<Option<Quat>> {
+        let mut previous: Option<Quat> = None;
+        self.samples
+            .iter()
+            .map(|s| {
+                let Some(pose) = &s.pose else {
+                    previous = None;
+                    return None;
+                };
+                let q = Quat::from_rotation(&pose.world_from_tool.rotation);
+                let q = previous.map_or(q, |p| q.continuous_with(&p));
+                previous = Some(q);
+                Some(q)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pose() -> ToolPose {
+        ToolPose {
+            world_from_tool: Pose::identity(),
+            tip_in_world: Point3::origin(),
+            markers: 4,
+            rms_mm: 0.0,
+        }
+    }
+
+    #[test]
+    fn segments_split_at_gaps() {
+        let mut samples: Vec<Sample> = (0..8)
+            .map(|i| Sample::measured(FrameIndex(i), i as f64 / 30.0, pose()))
+            .collect();
+        samples[0].pose = None;
+        samples[3].pose = None;
+        samples[4].pose = None;
+        let t = Trajectory { samples };
+        assert_eq!(t.segments(), vec![1..3, 5..8]);
+    }
+}
