@@ -106,3 +106,23 @@ def main():
 
 if __name__ == "__main__":
     main()
+
+
+def write_filestorage():
+    """tests/data/calib_opencv_left.yaml: cv2.FileStorage's own YAML of the left camera."""
+    with open(OUT) as f:
+        ref = json.load(f)
+    c = ref["calibrate_left"]
+    K = np.array([[c["fx"], 0, c["cx"]], [0, c["fy"], c["cy"]], [0, 0, 1]], np.float64)
+    path = os.path.join(os.path.dirname(OUT), "calib_opencv_left.yaml")
+    fs = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
+    fs.write("image_width", 640)
+    fs.write("image_height", 480)
+    fs.write("camera_matrix", K)
+    fs.write("distortion_coefficients", np.array(c["distortion"], np.float64).reshape(1, 5))
+    fs.write("avg_reprojection_error", c["rms_px"])
+    fs.release()
+
+
+if __name__ == "__main__":
+    write_filestorage()

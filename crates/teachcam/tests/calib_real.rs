@@ -451,3 +451,14 @@ fn stereo_baseline_with_our_corners() {
     eprintln!("stereo, our corners: baseline {baseline:.4} mm (OpenCV {opencv_baseline:.4})");
     assert!((baseline / opencv_baseline - 1.0).abs() < 0.01);
 }
+
+/// A file written by `cv2.FileStorage` itself reads back as OpenCV's calibration.
+#[test]
+fn reads_opencv_filestorage_yaml() {
+    let reference = reference();
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/calib_opencv_left.yaml");
+    let c = teachcam::io::camera_file::read_camera(&path).unwrap_or_else(|e| panic!("{e}"));
+    let expected = opencv_camera("calib_opencv_left", &reference["calibrate_left"]);
+    assert_eq!(c.camera, expected);
+    assert_eq!(c.rms_px, Some(f(&reference["calibrate_left"]["rms_px"])));
+}
