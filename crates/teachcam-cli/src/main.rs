@@ -26,6 +26,8 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Write a simulated recording with its ground truth.
     Simulate(cmd::simulate::Args),
+    /// Calibrate a camera or a whole rig from chessboard photographs.
+    Calibrate(cmd::calibrate::Args),
     /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
     Uncertainty(cmd::uncertainty::Args),
     /// First-order tip uncertainty over a grid of the working volume.
@@ -64,6 +66,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
+        Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
