@@ -274,32 +274,28 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     let r = RING_RADIUS as usize;
     let mut response = vec![0.0f32; w * h];
     let mut max_response = 0.0f32;
-    let offsets_of = |ring: &[(i32, i32); 16]| -> Vec<isize> {
-        ring.iter()
-            .map(|&(dx, dy)| dy as isize * w as isize + dx as isize)
-            .collect()
+    // Row slices per ring sample, so the inner loop indexes plain slices by x - r.
+    let rows_of = |ring: &[(i32, i32); 16], y: usize| -> [&[f32]; 16] {
+        std::array::from_fn(|k| {
+            let (dx, dy) = ring[k];
+            let start =
+                (y as i64 + i64::from(dy)) as usize * w + (r as i64 + i64::from(dx)) as usize;
+            &plane.data[start..]
+        })
     };
-    let rings = [offsets_of(&RING), offsets_of(&SMALL_RING)];
     for y in r..h - r {
+        let big = rows_of(&RING, y);
+        let small = rows_of(&SMALL_RING, y);
+        let above = &plane.data[(y - 1) * w..y * w];
+        let here = &plane.data[y * w..(y + 1) * w];
+        let below = &plane.data[(y + 1) * w..(y + 2) * w];
         for x in r..w - r {
-            let centre = (y * w + x) as isize;
-            let local_mean = (plane.at(x, y)
-                + plane.at(x - 1, y)
-                + plane.at(x + 1, y)
-                + plane.at(x, y - 1)
-                + plane.at(x, y + 1))
-                / 5.0;
+            let local_mean = (here[x] + here[x - 1] + here[x + 1] + above[x] + below[x]) / 5.0;
             // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
-            let value = rings
-                .iter()
-                .map(|offsets| {
-                    let mut ring = [0.0f32; 16];
-                    for (value, offset) in ring.iter_mut().zip(offsets) {
-                        *value = plane.data[(centre + offset) as usize];
-                    }
-                    chess_response(&ring, local_mean)
-                })
-                .fold(f32::MIN, f32::max);
+            let ring_big: [f32; 16] = std::array::from_fn(|k| big[k][x - r]);
+            let ring_small: [f32; 16] = std::array::from_fn(|k| small[k][x - r]);
+            let value =
+                chess_response(&ring_big, local_mean).max(chess_response(&ring_small, local_mean));
             if value > 0.0 {
                 response[y * w + x] = value;
                 max_response = max_response.max(value);
@@ -688,13 +684,39 @@ fn corner_subpix(
     let mut buffer = vec![0.0f64; buffer_side * buffer_side];
     let mut q = start;
     for _ in 0..config.subpix_max_iterations {
-        // buffer[(i, j)] samples q + (j - half - 1, i - half - 1).
-        for i in 0..buffer_side {
-            for j in 0..buffer_side {
-                buffer[i * buffer_side + j] = plane.bilinear(
-                    q.x + f64::from(j as i32 - half - 1),
-                    q.y + f64::from(i as i32 - half - 1),
-                );
+        // buffer[(i, j)] samples q + (j - half - 1, i - half - 1): one fractional offset for
+        // the whole patch, so the bilinear weights are shared when it lies inside the image.
+        let x0 = q.x - f64::from(half + 1);
+        let y0 = q.y - f64::from(half + 1);
+        let (bx, by) = (x0.floor(), y0.floor());
+        let inside = bx >= 0.0
+            && by >= 0.0
+            && bx + (buffer_side as f64) < plane.width as f64
+            && by + (buffer_side as f64) < plane.height as f64;
+        if inside {
+            let (ax, ay) = (x0 - bx, y0 - by);
+            let (w00, w01, w10, w11) = (
+                (1.0 - ax) * (1.0 - ay),
+                ax * (1.0 - ay),
+                (1.0 - ax) * ay,
+                ax * ay,
+            );
+            let (bx, by) = (bx as usize, by as usize);
+            for i in 0..buffer_side {
+                let top = &plane.data[(by + i) * plane.width + bx..];
+                let bottom = &plane.data[(by + i + 1) * plane.width + bx..];
+                for j in 0..buffer_side {
+                    buffer[i * buffer_side + j] = w00 * f64::from(top[j])
+                        + w01 * f64::from(top[j + 1])
+                        + w10 * f64::from(bottom[j])
+                        + w11 * f64::from(bottom[j + 1]);
+                }
+            }
+        } else {
+            for i in 0..buffer_side {
+                for j in 0..buffer_side {
+                    buffer[i * buffer_side + j] = plane.bilinear(x0 + j as f64, y0 + i as f64);
+                }
             }
         }
         let (mut a, mut b, mut c, mut bb1, mut bb2) = (0.0, 0.0, 0.0, 0.0, 0.0);
