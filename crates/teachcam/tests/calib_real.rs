@@ -1,6 +1,11 @@
 //! Calibration on real photographs and Zhang's data, against stored OpenCV references
 //! (`scripts/reference/calib_opencv.py` → `tests/data/calib_opencv_reference.json`).
 
+#![allow(
+    clippy::print_stderr,
+    reason = "tests print the measured numbers that notes/calib.md reports"
+)]
+
 use std::path::PathBuf;
 
 use serde_json::Value;

@@ -72,7 +72,7 @@ pub(crate) fn project_with_jacobian(
     point_in_camera: &Point3,
 ) -> Option<ProjectionJacobian> {
     let p = point_in_camera;
-    if !(p.z > 1e-9) {
+    if p.z.is_nan() || p.z <= 1e-9 {
         return None;
     }
     let [fx, fy, _, _, k1, k2, p1, p2, k3] = *params;
@@ -475,7 +475,9 @@ pub(crate) fn check_camera(camera: &Camera, image_size: ImageSize) -> Result<(),
     }
     let Intrinsics { fx, fy, cx, cy } = camera.intrinsics;
     let (w, h) = (f64::from(image_size.width), f64::from(image_size.height));
-    if !(fx > 0.0 && fy > 0.0) || !(-w..=2.0 * w).contains(&cx) || !(-h..=2.0 * h).contains(&cy) {
+    let plausible =
+        fx > 0.0 && fy > 0.0 && (-w..=2.0 * w).contains(&cx) && (-h..=2.0 * h).contains(&cy);
+    if !plausible {
         return Err(CalibError::Diverged {
             detail: format!(
                 "fx = {fx:.1}, fy = {fy:.1}, cx = {cx:.1}, cy = {cy:.1} px is not a camera for a {}x{} image",

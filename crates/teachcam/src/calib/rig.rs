@@ -53,23 +53,14 @@ pub enum WorldFrame {
 }
 
 /// Options of [`calibrate_rig`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct RigConfig {
     /// Refine every camera's `fx, fy, cx, cy, k1, k2, p1, p2, k3` in the bundle adjustment
-    /// too; false: intrinsics from single-camera calibration are usually better determined
+    /// too; default false: intrinsics from single-camera calibration are usually better determined
     /// (OpenCV's `CALIB_FIX_INTRINSIC`, its recommended setting).
     pub refine_intrinsics: bool,
-    /// The optimiser's settings.
+    /// The optimiser's settings (defaults: [`LmConfig::default`]).
     pub lm: LmConfig,
-}
-
-impl Default for RigConfig {
-    fn default() -> Self {
-        Self {
-            refine_intrinsics: false,
-            lm: LmConfig::default(),
-        }
-    }
 }
 
 /// Residual of one camera after the bundle adjustment.

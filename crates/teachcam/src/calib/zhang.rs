@@ -84,7 +84,7 @@ pub fn homography(
     let t_image_inv = t_image.try_inverse().ok_or_else(|| degenerate.clone())?;
     let mut result = t_image_inv * normalised * t_board;
     let scale = result[(2, 2)];
-    if !(scale.abs() > f64::EPSILON) || !result.iter().all(|v| v.is_finite()) {
+    if !result.iter().all(|v| v.is_finite()) || scale.abs() <= f64::EPSILON {
         return Err(degenerate);
     }
     result /= scale;
@@ -102,7 +102,7 @@ fn normalising_transform(points: &[(f64, f64)]) -> Option<Matrix3<f64>> {
         .map(|p| (p.0 - mx).hypot(p.1 - my))
         .sum::<f64>()
         / n;
-    if !(mean_distance > 0.0) || !mean_distance.is_finite() {
+    if !mean_distance.is_finite() || mean_distance <= 0.0 {
         return None;
     }
     let s = std::f64::consts::SQRT_2 / mean_distance;
@@ -184,13 +184,14 @@ pub fn intrinsics_from_homographies(
     let mut singular: Vec<f64> = svd.singular_values.iter().copied().collect();
     singular.sort_by(|a, b| b.total_cmp(a));
     // b is a null vector of V: the second smallest singular value must stand clear of zero.
-    if !(singular[4] > 1e-12 * singular[0]) {
+    if singular[4].is_nan() || singular[4] <= 1e-12 * singular[0] {
         return Err(ZhangError::DegenerateViews);
     }
     let b = null_vector(v).ok_or(ZhangError::DegenerateViews)?;
     let (b11, b12, b22, b13, b23, b33) = (b[0], b[1], b[2], b[3], b[4], b[5]);
     let denominator = b11 * b22 - b12 * b12;
-    if !(denominator.abs() > f64::EPSILON * b11.abs().max(b22.abs()).powi(2)) || b11 == 0.0 {
+    let tiny = f64::EPSILON * b11.abs().max(b22.abs()).powi(2);
+    if denominator.is_nan() || denominator.abs() <= tiny || b11 == 0.0 {
         return Err(ZhangError::DegenerateViews);
     }
     let cy = (b12 * b13 - b11 * b23) / denominator;
