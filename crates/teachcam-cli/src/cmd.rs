@@ -3,6 +3,7 @@
 pub mod align;
 pub mod c3d;
 pub mod check;
+pub mod calibrate;
 pub mod demo;
 pub mod detect;
 pub mod export;

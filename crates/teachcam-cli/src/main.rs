@@ -32,6 +32,8 @@ enum Command {
     Repeatability(cmd::repeatability::Args),
     /// Track the tool through a recording: detect, correspond, triangulate, identify, register.
     Track(cmd::track::Args),
+    /// Calibrate a camera or a whole rig from chessboard photographs.
+    Calibrate(cmd::calibrate::Args),
     /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
     Uncertainty(cmd::uncertainty::Args),
     /// First-order tip uncertainty over a grid of the working volume.
@@ -85,6 +87,7 @@ fn main() -> ExitCode {
         Command::Detect(args) => cmd::detect::run(&args),
         Command::Repeatability(args) => cmd::repeatability::run(&args),
         Command::Track(args) => cmd::track::run(&args),
+        Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
