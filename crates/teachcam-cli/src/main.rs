@@ -36,13 +36,9 @@ enum Command {
     UncertaintyMap(cmd::uncertainty_map::Args),
     /// Check a tool's marker layout: identification margin and expected tip error.
     ToolCheck(cmd::tool_check::Args),
-    /// Check a trajectory on a robot: reach, joint limits, speeds, singularities.
     Check(cmd::check::Args),
-    /// Write a robot program (RAPID, KRL, URScript or CSV) for a trajectory.
     Export(cmd::export::Args),
-    /// Align the vision frame with the robot's base from points known in both.
     Align(cmd::align::Args),
-    /// Pivot calibration of the tool centre point.
     Pivot(cmd::pivot::Args),
 }
 
