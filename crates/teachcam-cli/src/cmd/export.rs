@@ -27,7 +27,9 @@ pub enum Dialect {
     Csv,
 }
 
-/// Write a robot program for a trajectory. The trajectory is checked on the robot first
+/// Write a robot program (RAPID, KRL, URScript or CSV) for a trajectory.
+///
+/// The trajectory is checked on the robot first
 /// (as `teachcam check`); a program that would fail is not written unless `--force` is given.
 /// Targets are simplified within the path tolerance; each move's speed reproduces the recorded
 /// timing.
