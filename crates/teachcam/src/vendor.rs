@@ -42,13 +42,10 @@ pub fn read_motive_csv(path: &Path) -> Result<PointData, FileError> {
 /// # Errors
 /// As [`read_motive_csv`].
 pub fn parse_motive_csv(path: &Path, text: &str) -> Result<PointData, FileError> {
-    let rows: Vec<Vec<&str>> = text
-        .lines()
-        .map(|line| {
-            line.split(',')
-                .map(|c| c.trim().trim_matches('"'))
-                .collect()
-        })
+    let owned: Vec<Vec<String>> = text.lines().map(split_csv_line).collect();
+    let rows: Vec<Vec<&str>> = owned
+        .iter()
+        .map(|r| r.iter().map(String::as_str).collect())
         .collect();
     let meta = rows
         .first()
@@ -139,6 +136,28 @@ pub fn parse_motive_csv(path: &Path, text: &str) -> Result<PointData, FileError>
     }
     PointData::new(labels, rate_hz, units.to_string(), &frames)
         .map_err(|e| FileError::invalid(path, e.to_string()))
+}
+
+/// The cells of one CSV line, trimmed; a double-quoted cell may hold commas and `""` for a
+/// quote (Motive quotes names and ids). Records never span lines in these exports.
+fn split_csv_line(line: &str) -> Vec<String> {
+    let mut cells = Vec::new();
+    let mut cell = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cell.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => cells.push(std::mem::take(&mut cell).trim().to_string()),
+            _ => cell.push(c),
+        }
+    }
+    cells.push(cell.trim().to_string());
+    cells
 }
 
 /// A sample from three cells starting at `col`: a gap when any is empty or missing.

@@ -221,3 +221,19 @@ fn markers_csv_gaps_and_errors() {
     assert!(error(vendor::parse_markers_csv(path, "frame,x_mm\n", 30.0)).contains("no column"));
     assert!(error(vendor::parse_markers_csv(path, text, 0.0)).contains("frame rate"));
 }
+
+#[test]
+fn motive_quoted_names_may_hold_commas() {
+    let text = "Format Version,1.23,Export Frame Rate,100,Length Units,Meters\n\n\
+,Type,Marker,Marker,Marker\n\
+,Name,\"Wand, tip\",\"Wand, tip\",\"Wand, tip\"\n\
+,ID,\"1,2\",\"1,2\",\"1,2\"\n\
+,,Position,Position,Position\n\
+Frame,Time (Seconds),X,Y,Z\n\
+0,0.0,0.5,0.25,1.0\n";
+    let points =
+        vendor::parse_motive_csv(Path::new("q.csv"), text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(points.labels, ["Wand, tip"]);
+    assert_eq!(points.units, "m");
+    assert_eq!(position(&points, 0, 0), Some([0.5, 0.25, 1.0]));
+}
