@@ -42,6 +42,14 @@ enum Command {
     C3d(cmd::c3d::Args),
     /// Another tracker's markers (C3D, Motive CSV, Qualisys TSV) to a tool trajectory.
     Import(cmd::import::Args),
+    /// Check a trajectory on a robot: reach, joint limits, speeds, singularities.
+    Check(cmd::check::Args),
+    /// Write a robot program (RAPID, KRL, URScript or CSV) for a trajectory.
+    Export(cmd::export::Args),
+    /// Align the vision frame with the robot's base from points known in both.
+    Align(cmd::align::Args),
+    /// Pivot calibration of the tool centre point.
+    Pivot(cmd::pivot::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -82,6 +90,10 @@ fn main() -> ExitCode {
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
         Command::C3d(args) => cmd::c3d::run(&args),
         Command::Import(args) => cmd::import::run(&args),
+        Command::Check(args) => cmd::check::run(&args),
+        Command::Export(args) => cmd::export::run(&args),
+        Command::Align(args) => cmd::align::run(&args),
+        Command::Pivot(args) => cmd::pivot::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -30,6 +30,7 @@
 //! - [`register`]: the tool's pose by SVD registration (§II-C).
 //! - [`track`]: the stages above per frame, frames in parallel.
 //! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
+//! - [`robot`]: vision↔robot frames, IRB 120 kinematics, the robot check, RAPID/KRL/URScript.
 //! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
 //! - [`c3d`]: C3D motion-capture files in and out.
 //! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
@@ -46,6 +47,7 @@ pub mod identify;
 pub mod register;
 pub mod track;
 pub mod metrology;
+pub mod robot;
 pub mod sim;
 pub mod c3d;
 pub mod vendor;

@@ -17,6 +17,7 @@
 //! ([`crate::register`], paper §II-C). Fewer than three markers, a refused registration or a
 //! residual above the limit leave an explicit gap.
 
+use std::collections::BTreeMap;
 use std::ops::Range;
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
@@ -26,7 +27,8 @@ use crate::geometry::{FrameIndex, MarkerId, Point3, Pose, pose_from_parts};
 use crate::identify::{IdentifyConfig, identify};
 use crate::register::{Scale, register};
 use crate::tool::Tool;
-use crate::trajectory::{Sample, ToolPose, Trajectory};
+use crate::track::pose_from_markers;
+use crate::trajectory::{Sample, Trajectory};
 
 /// Rounds of alignment onto the mean shape (the first aligns onto frame one's shape; a second
 /// round removes that frame's noise from the reference; more change nothing measurable).
@@ -242,18 +244,15 @@ pub fn track_markers(
     let samples = (0..points.frame_count())
         .map(|f| {
             let time_s = f as f64 / points.rate_hz;
-            let (model, measured): (Vec<Point3>, Vec<Point3>) = match selection {
+            let markers_in_world: BTreeMap<MarkerId, Point3> = match selection {
                 MarkerSelection::Labels(columns) => columns
                     .iter()
                     .enumerate()
                     .filter_map(|(k, &c)| {
                         let s = points.sample(FrameIndex(f), c)?;
-                        Some((
-                            tool.markers_in_tool[k],
-                            Point3::from(s.position.coords * scale),
-                        ))
+                        Some((MarkerId(k), Point3::from(s.position.coords * scale)))
                     })
-                    .unzip(),
+                    .collect(),
                 MarkerSelection::Identify(identify_config) => {
                     let all: Vec<Point3> = points
                         .frame(FrameIndex(f))
@@ -263,39 +262,16 @@ pub fn track_markers(
                         .map(|s| Point3::from(s.position.coords * scale))
                         .collect();
                     let found = identify(&tool.markers_in_tool, &all, identify_config);
-                    found
-                        .labels
-                        .iter()
-                        .map(|(MarkerId(k), &i)| (tool.markers_in_tool[*k], all[i]))
-                        .unzip()
+                    found.labels.iter().map(|(m, &i)| (*m, all[i])).collect()
                 }
             };
-            match pose(tool, &model, &measured, config) {
-                Some(p) => Sample::measured(FrameIndex(f), time_s, p),
-                None => Sample::gap(FrameIndex(f), time_s),
+            match pose_from_markers(tool, &markers_in_world, config.max_registration_rms_mm) {
+                Ok(p) => Sample::measured(FrameIndex(f), time_s, p),
+                Err(_) => Sample::gap(FrameIndex(f), time_s),
             }
         })
         .collect();
     Ok(Trajectory { samples })
-}
-
-fn pose(
-    tool: &Tool,
-    model: &[Point3],
-    measured: &[Point3],
-    config: &TrackMarkersConfig,
-) -> Option<ToolPose> {
-    let registration = register(model, measured, Scale::Fixed).ok()?;
-    if registration.rms_mm > config.max_registration_rms_mm {
-        return None;
-    }
-    let world_from_tool = registration.measured_from_model;
-    Some(ToolPose {
-        world_from_tool,
-        tip_in_world: world_from_tool * tool.tip_in_tool(),
-        markers: model.len(),
-        rms_mm: registration.rms_mm,
-    })
 }
 
 /// The tool's markers and tip in every frame of a trajectory, as marker data for a C3D file:
