@@ -874,6 +874,16 @@ fn tracked_markers_to_c3d_and_back() {
 
 /// The paper's simulated stroke, tracked from exact marker projections (no noise).
 fn simulated_tracks() -> (teachcam::sim::Scene, Vec<teachcam::track::FrameTrack>) {
+    let (scene, _, tracks) = simulated_tracking();
+    (scene, tracks)
+}
+
+/// [`simulated_tracks`] with the trajectory.
+fn simulated_tracking() -> (
+    teachcam::sim::Scene,
+    teachcam::trajectory::Trajectory,
+    Vec<teachcam::track::FrameTrack>,
+) {
     use teachcam::correspond::Views;
     use teachcam::sim::{Scenario, build_scene, markers_in_world};
     use teachcam::track::{TrackConfig, Tracker};
@@ -901,8 +911,8 @@ fn simulated_tracks() -> (teachcam::sim::Scene, Vec<teachcam::track::FrameTrack>
         })
         .collect();
     let tracker = Tracker::new(&scene.rig, &scene.tool, TrackConfig::default());
-    let (_, tracks) = tracker.track_all(&frames, scene.fps);
-    (scene, tracks)
+    let (trajectory, tracks) = tracker.track_all(&frames, scene.fps);
+    (scene, trajectory, tracks)
 }
 
 /// Tool from a recording: the markers `teachcam track --markers-out` writes (its layout,
@@ -950,4 +960,46 @@ fn tool_from_our_tracked_markers_matches_the_true_tool() {
     assert!(m[1].y.abs() < 1e-9 && m[1].z.abs() < 1e-9 && m[1].x > 0.0);
     assert!(m[2].z.abs() < 1e-9 && m[2].y > 0.0);
     assert!(built.marker_rms_mm.iter().all(|r| *r < 1e-3));
+}
+
+/// A trajectory with the measured markers of `track --markers-out` (its layout, printed to
+/// 1e-6 mm) gives the same C3D points as the tracks themselves: markers and tip within 1e-6 mm.
+#[test]
+fn trajectory_with_measured_markers_equals_the_tracks() {
+    use std::fmt::Write as _;
+    let (scene, trajectory, tracks) = simulated_tracking();
+    let mut text = String::from("frame,marker,x_mm,y_mm,z_mm,views,residual_px\n");
+    for (frame, track) in tracks.iter().enumerate() {
+        for (marker, p) in track.markers_in_world() {
+            let _ = writeln!(
+                text,
+                "{frame},{},{:.6},{:.6},{:.6},3,0.01",
+                marker.0, p.x, p.y, p.z
+            );
+        }
+    }
+    let measured =
+        teachcam::vendor::parse_markers_csv(std::path::Path::new("m.csv"), &text, scene.fps)
+            .unwrap_or_else(|e| panic!("{e}"));
+    let ours = c3d::points_from_trajectory_and_measured(&trajectory, &scene.tool, &measured)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let direct =
+        c3d::points_from_tracks(&tracks, &scene.tool, scene.fps).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(ours.labels, direct.labels);
+    assert_eq!(ours.frame_count(), direct.frame_count());
+    for f in 0..ours.frame_count() {
+        for m in 0..ours.marker_count() {
+            let (a, b) = (
+                ours.sample(FrameIndex(f), m),
+                direct.sample(FrameIndex(f), m),
+            );
+            assert_eq!(a.is_some(), b.is_some(), "frame {f} marker {m}");
+            if let (Some(a), Some(b)) = (a, b) {
+                assert!(
+                    (a.position - b.position).amax() < 1e-6,
+                    "frame {f} marker {m}"
+                );
+            }
+        }
+    }
 }
