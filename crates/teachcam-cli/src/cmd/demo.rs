@@ -150,6 +150,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         tcp: DEMO_TCP.into(),
         tool: None,
         speed_fraction: 1.0,
+        max_acceleration_deg_s2: None,
     };
     let program_input = raw_path.clone();
     let resolved = resolve(&program_input, &cell)?;
