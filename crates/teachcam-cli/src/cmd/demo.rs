@@ -26,7 +26,9 @@ const PAPER_PIXEL_NOISE: f64 = 0.15;
 /// The paper's Monte Carlo result for its rig (§V-C), millimetres.
 const PAPER_TIP_UNCERTAINTY_MM: f64 = 0.26;
 
-/// Simulate a painter's stroke seen by the paper's three-camera rig (1280x1024, 12 mm lenses,
+/// Run the whole pipeline on a simulation of the paper's setup.
+///
+/// Simulates a painter's stroke seen by the paper's three-camera rig (1280x1024, 12 mm lenses,
 /// 1 m away, a four-sphere brush, 4 s at 30 Hz), then run the whole pipeline on the rendered
 /// images: detection, tracking, smoothing (low-pass 10 Hz, the paper's choice), the Monte Carlo
 /// uncertainty study, the IRB 120 check and the RAPID export. Prints the accuracy against the

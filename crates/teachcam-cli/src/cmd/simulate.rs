@@ -7,7 +7,9 @@ use teachcam::sim::{Scenario, build_scene, write_scene};
 
 use crate::progress::Progress;
 
-/// Write a simulated recording: one folder per camera of 8-bit PNG frames, `recording.json`,
+/// Write a simulated recording with its ground truth.
+///
+/// Writes one folder per camera of 8-bit PNG frames, `recording.json`,
 /// `rig.json`, `tool.json`, the true trajectory `truth.csv` and the exact projection of every
 /// marker centre in every view `projections.csv`.
 ///

@@ -17,7 +17,9 @@ use crate::Rejected;
 use crate::cmd::detect::detect_recording;
 use crate::progress::Progress;
 
-/// Track the tool through a recording: detect the marker blobs in every camera, match them
+/// Track the tool through a recording: its pose in every frame.
+///
+/// Detects the marker blobs in every camera, match them
 /// across cameras (the paper's trinocular loop), triangulate, identify the tool's markers by
 /// their distances, and register the tool (SVD, scale 1). Writes the contract's trajectory CSV:
 /// one row per frame, pose fields empty where the frame has no pose, plus `tip_std_mm`, the
