@@ -22,10 +22,13 @@
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
+//! - [`smooth`]: the paper's four smoothers (low-pass, spline, Bezier, NURBS), SO(3)-aware,
+//!   with spectrum, cut-off suggestion and gap filling.
 //! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
 
 pub mod camera;
 pub mod geometry;
 pub mod io;
+pub mod smooth;
 pub mod tool;
 pub mod trajectory;
