@@ -8,7 +8,10 @@ use teachcam::smooth::butterworth::Butterworth;
 use teachcam::smooth::spectrum::amplitude_spectrum;
 use teachcam::smooth::spline::{CubicSpline, SplineEnds};
 
-#[expect(clippy::expect_used, reason = "test fixture: a missing reference is a broken checkout")]
+#[expect(
+    clippy::expect_used,
+    reason = "test fixture: a missing reference is a broken checkout"
+)]
 fn reference() -> Value {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -18,7 +21,10 @@ fn reference() -> Value {
     serde_json::from_str(&text).expect("reference is JSON")
 }
 
-#[expect(clippy::expect_used, reason = "test fixture: the stored file's shape is fixed")]
+#[expect(
+    clippy::expect_used,
+    reason = "test fixture: the stored file's shape is fixed"
+)]
 fn numbers(v: &Value) -> Vec<f64> {
     v.as_array()
         .expect("array")
