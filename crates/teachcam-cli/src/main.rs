@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod plot;
 
 /// Program an industrial robot by demonstration: marker tracking with calibrated cameras,
 /// trajectory smoothing, robot checks and robot programs (ABB RAPID, KUKA KRL, UR URScript).
@@ -23,6 +24,12 @@ struct Cli {
 enum Command {
     /// Simulate the paper's setup and run the whole pipeline on it.
     Demo(cmd::demo::Args),
+    /// Smooth a trajectory (low-pass, spline, Bezier or NURBS), rotations on SO(3).
+    Smooth(cmd::smooth::Args),
+    /// Amplitude spectrum of each trajectory component, as CSV or PNG.
+    Spectrum(cmd::spectrum::Args),
+    /// Rerun the paper's comparison of smoothing methods on sinusoids plus noise.
+    SmoothingStudy(cmd::smoothing_study::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -42,6 +49,9 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
+        Command::Smooth(args) => cmd::smooth::run(&args),
+        Command::Spectrum(args) => cmd::spectrum::run(&args),
+        Command::SmoothingStudy(args) => cmd::smoothing_study::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -26,6 +26,7 @@ pub mod gaps;
 pub mod rotation;
 pub mod spectrum;
 pub mod spline;
+pub mod study;
 
 use nalgebra::{UnitQuaternion, Vector3};
 use rayon::prelude::*;
@@ -653,4 +654,112 @@ pub fn recover_tip_in_tool(
         }
     }
     Ok(tip_in_tool)
+}
+
+/// Names of the six smoothed components of a run, with units: the position, then the unrolled
+/// rotation vector.
+pub const COMPONENTS: [&str; 6] = ["x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad"];
+
+/// The amplitude spectra of the six components over the longest measured segment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ComponentSpectra {
+    /// First frame of the segment analysed.
+    pub first_frame: usize,
+    /// Last frame of the segment analysed.
+    pub last_frame: usize,
+    /// Sampling rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Bin frequencies, Hz.
+    pub frequency_hz: Vec<f64>,
+    /// Amplitude of each of [`COMPONENTS`] at each frequency (mm or rad).
+    pub amplitude: [Vec<f64>; 6],
+}
+
+/// The longest measured segment (no gap) as uniform series.
+fn longest_segment(
+    trajectory: &Trajectory,
+    time_step_tolerance: f64,
+) -> Result<(Timing, std::ops::Range<usize>, RunSeries), SmoothError> {
+    let timing = check_timing(trajectory, time_step_tolerance)?;
+    check_finite(trajectory)?;
+    let segment = trajectory
+        .segments()
+        .into_iter()
+        .max_by_key(|r| (r.len(), std::cmp::Reverse(r.start)))
+        .ok_or(SmoothError::Empty {
+            samples: trajectory.len(),
+            poses: 0,
+        })?;
+    let series = run_series(&trajectory.samples[segment.clone()]);
+    Ok((timing, segment, series))
+}
+
+/// Amplitude spectrum (paper Fig. 7) of each component over the longest gap-free segment.
+///
+/// # Errors
+/// As [`check_timing`], or no pose at all.
+pub fn trajectory_spectrum(
+    trajectory: &Trajectory,
+    time_step_tolerance: f64,
+) -> Result<ComponentSpectra, SmoothError> {
+    let (timing, segment, series) = longest_segment(trajectory, time_step_tolerance)?;
+    let spectra: Vec<spectrum::Spectrum> = series
+        .columns
+        .iter()
+        .map(|c| spectrum::amplitude_spectrum(c, timing.sample_rate_hz))
+        .collect();
+    let frequency_hz = spectra[0].frequency_hz.clone();
+    let mut amplitude: [Vec<f64>; 6] = Default::default();
+    for (a, s) in amplitude.iter_mut().zip(spectra) {
+        *a = s.amplitude;
+    }
+    Ok(ComponentSpectra {
+        first_frame: trajectory.samples[segment.start].frame.0,
+        last_frame: trajectory.samples[segment.end - 1].frame.0,
+        sample_rate_hz: timing.sample_rate_hz,
+        frequency_hz,
+        amplitude,
+    })
+}
+
+/// A cut-off chosen by residual analysis of the positions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CutoffSuggestion {
+    /// The largest of the three position components' suggestions, Hz: the most dynamic axis
+    /// decides, so no axis is over-smoothed.
+    pub cutoff_hz: f64,
+    /// The analysis of `x`, `y` and `z`.
+    pub per_axis: [cutoff::ResidualAnalysis; 3],
+}
+
+/// Suggests a low-pass cut-off for `trajectory` by Winter's residual analysis of `x`, `y`, `z`
+/// over the longest gap-free segment (single-pass cut-offs, order `order`).
+///
+/// # Errors
+/// As [`check_timing`], or a segment too short for the filter.
+pub fn suggest_cutoff(
+    trajectory: &Trajectory,
+    order: usize,
+    time_step_tolerance: f64,
+) -> Result<CutoffSuggestion, SmoothError> {
+    let (timing, segment, series) = longest_segment(trajectory, time_step_tolerance)?;
+    let filter_error = |source| SmoothError::Filter {
+        first_frame: trajectory.samples[segment.start].frame.0,
+        last_frame: trajectory.samples[segment.end - 1].frame.0,
+        source,
+    };
+    let analyse = |c: &Vec<f64>| cutoff::residual_analysis(c, timing.sample_rate_hz, order, 90);
+    let per_axis = [
+        analyse(&series.columns[0]).map_err(filter_error)?,
+        analyse(&series.columns[1]).map_err(filter_error)?,
+        analyse(&series.columns[2]).map_err(filter_error)?,
+    ];
+    let cutoff_hz = per_axis
+        .iter()
+        .map(|a| a.suggested_cutoff_hz)
+        .fold(0.0, f64::max);
+    Ok(CutoffSuggestion {
+        cutoff_hz,
+        per_axis,
+    })
 }
