@@ -1,6 +1,12 @@
 //! One module per subcommand.
 
 pub mod demo;
+pub mod detect;
+pub mod repeatability;
+pub mod simulate;
 pub mod smooth;
 pub mod smoothing_study;
 pub mod spectrum;
+pub mod tool_check;
+pub mod uncertainty;
+pub mod uncertainty_map;

@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod cmd;
 mod plot;
+mod progress;
 
 /// Program an industrial robot by demonstration: marker tracking with calibrated cameras,
 /// trajectory smoothing, robot checks and robot programs (ABB RAPID, KUKA KRL, UR URScript).
@@ -24,6 +25,18 @@ struct Cli {
 enum Command {
     /// Simulate the paper's setup and run the whole pipeline on it.
     Demo(cmd::demo::Args),
+    /// Write a simulated recording with its ground truth.
+    Simulate(cmd::simulate::Args),
+    /// Find marker blobs with sub-pixel centres in every frame of a recording.
+    Detect(cmd::detect::Args),
+    /// Repeatability of blob centres of static markers (the paper's Fig. 10).
+    Repeatability(cmd::repeatability::Args),
+    /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
+    Uncertainty(cmd::uncertainty::Args),
+    /// First-order tip uncertainty over a grid of the working volume.
+    UncertaintyMap(cmd::uncertainty_map::Args),
+    /// Check a tool's marker layout: identification margin and expected tip error.
+    ToolCheck(cmd::tool_check::Args),
     /// Smooth a trajectory (low-pass, spline, Bezier or NURBS), rotations on SO(3).
     Smooth(cmd::smooth::Args),
     /// Amplitude spectrum of each trajectory component, as CSV or PNG.
@@ -33,22 +46,40 @@ enum Command {
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
-/// errors (exit status 2).
+/// errors (exit status 2). Its message is the wrapped error's, on one line.
 #[derive(Debug)]
-pub struct DataRejected;
+pub struct DataRejected(anyhow::Error);
 
 impl std::fmt::Display for DataRejected {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("input rejected")
+        write!(f, "{:#}", self.0)
     }
 }
 
 impl std::error::Error for DataRejected {}
 
+/// Marks a failure as the user's data being rejected (exit status 1).
+pub trait Rejected<T> {
+    /// The same result, its error marked as rejected data.
+    fn rejected(self) -> anyhow::Result<T>;
+}
+
+impl<T, E: Into<anyhow::Error>> Rejected<T> for Result<T, E> {
+    fn rejected(self) -> anyhow::Result<T> {
+        self.map_err(|e| anyhow::Error::new(DataRejected(e.into())))
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
+        Command::Simulate(args) => cmd::simulate::run(&args),
+        Command::Detect(args) => cmd::detect::run(&args),
+        Command::Repeatability(args) => cmd::repeatability::run(&args),
+        Command::Uncertainty(args) => cmd::uncertainty::run(&args),
+        Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
+        Command::ToolCheck(args) => cmd::tool_check::run(&args),
         Command::Smooth(args) => cmd::smooth::run(&args),
         Command::Spectrum(args) => cmd::spectrum::run(&args),
         Command::SmoothingStudy(args) => cmd::smoothing_study::run(&args),
@@ -57,7 +88,10 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
-            if error.chain().any(|cause| cause.is::<DataRejected>()) {
+            if error
+                .chain()
+                .any(|cause| cause.downcast_ref::<DataRejected>().is_some())
+            {
                 ExitCode::from(1)
             } else {
                 ExitCode::from(2)

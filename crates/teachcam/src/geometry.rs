@@ -241,6 +241,47 @@ pub fn rotation_rows(rotation: &UnitQuaternion<f64>) -> [[f64; 3]; 3] {
     ]
 }
 
+/// Why a pose written as text was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PoseTextError {
+    /// Not seven comma-separated numbers.
+    #[error(
+        "expected 7 comma-separated numbers x,y,z,qw,qx,qy,qz (mm and a unit quaternion), got '{0}'"
+    )]
+    Shape(String),
+    /// The quaternion is not of unit length.
+    #[error("quaternion qw,qx,qy,qz of '{0}' is not of unit length")]
+    NotUnit(String),
+}
+
+/// A pose from the text `x,y,z,qw,qx,qy,qz` (millimetres, then a unit quaternion within
+/// 1e-4, renormalised), the form of the `--pose`, `--wobj` and `--tcp` flags.
+///
+/// # Errors
+/// [`PoseTextError`] quoting the text.
+pub fn parse_pose(text: &str) -> Result<Pose, PoseTextError> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| PoseTextError::Shape(text.to_string()))?;
+    let [x, y, z, qw, qx, qy, qz] = values[..] else {
+        return Err(PoseTextError::Shape(text.to_string()));
+    };
+    if ![x, y, z].iter().all(|v| v.is_finite()) {
+        return Err(PoseTextError::Shape(text.to_string()));
+    }
+    let q = Quaternion::new(qw, qx, qy, qz);
+    let norm = q.norm();
+    if !norm.is_finite() || (norm - 1.0).abs() > 1e-4 {
+        return Err(PoseTextError::NotUnit(text.to_string()));
+    }
+    Ok(pose_from_parts(
+        Vec3::new(x, y, z),
+        UnitQuaternion::from_quaternion(q),
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -253,6 +294,33 @@ mod tests {
         assert!(q.w >= 0.0);
         let back = q.to_rotation().unwrap();
         assert_relative_eq!(back.angle_to(&r), 0.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn pose_text_parses_and_refuses() {
+        let p = parse_pose("1, 2, 3, 0.7071068, 0, 0, 0.7071068").unwrap();
+        assert_relative_eq!(p.translation.vector, Vec3::new(1.0, 2.0, 3.0));
+        assert_relative_eq!(
+            p.rotation.angle(),
+            std::f64::consts::FRAC_PI_2,
+            epsilon = 1e-6
+        );
+        assert!(matches!(
+            parse_pose("1,2,3,1,0,0"),
+            Err(PoseTextError::Shape(_))
+        ));
+        assert!(matches!(
+            parse_pose("1,2,3,1,0,0,x"),
+            Err(PoseTextError::Shape(_))
+        ));
+        assert!(matches!(
+            parse_pose("1,2,3,2,0,0,0"),
+            Err(PoseTextError::NotUnit(_))
+        ));
+        assert!(matches!(
+            parse_pose("nan,2,3,1,0,0,0"),
+            Err(PoseTextError::Shape(_))
+        ));
     }
 
     #[test]

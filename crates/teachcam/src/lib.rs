@@ -22,13 +22,29 @@
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
+//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
+//! - [`detect`]: marker blobs in an image, with sub-pixel centres (§II-A, §IV-A).
+//! - [`correspond`]: which blobs in different cameras show the same marker (§II-A).
+//! - [`triangulate`]: 3-D points from corresponding blobs.
+//! - [`identify`]: which point is which marker, by distance-matrix voting (§II-B).
+//! - [`register`]: the tool's pose by SVD registration (§II-C).
+//! - [`track`]: the stages above per frame, frames in parallel.
 //! - [`smooth`]: the paper's four smoothers (low-pass, spline, Bezier, NURBS), SO(3)-aware,
 //!   with spectrum, cut-off suggestion and gap filling.
-//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
+//! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
+//! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
 
-pub mod camera;
 pub mod geometry;
-pub mod io;
-pub mod smooth;
+pub mod camera;
 pub mod tool;
 pub mod trajectory;
+pub mod io;
+pub mod detect;
+pub mod correspond;
+pub mod triangulate;
+pub mod identify;
+pub mod register;
+pub mod track;
+pub mod smooth;
+pub mod metrology;
+pub mod sim;

@@ -8,7 +8,7 @@ use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::smooth::spline::SplineEnds;
 use teachcam::smooth::{CutoffConvention, Method, SmoothConfig, smooth, suggest_cutoff};
 
-use crate::DataRejected;
+use crate::Rejected;
 
 /// Smooth a trajectory: zero-phase Butterworth low-pass (the paper's choice), cubic spline,
 /// Bezier or NURBS (least-squares B-spline). Rotations are smoothed on SO(3), the tip is
@@ -92,13 +92,13 @@ pub enum Ends {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
-    let trajectory = read_trajectory(&args.input).context(DataRejected)?;
+    let trajectory = read_trajectory(&args.input).rejected()?;
     let mut config = SmoothConfig {
         max_gap_frames: args.max_gap,
         ..SmoothConfig::default()
     };
     if let Some(path) = &args.tool {
-        config.tip_in_tool = Some(read_tool(path).context(DataRejected)?.tip_in_tool());
+        config.tip_in_tool = Some(read_tool(path).rejected()?.tip_in_tool());
     }
     config.method = match args.method {
         MethodName::Lowpass => {
@@ -106,7 +106,7 @@ pub fn run(args: &Args) -> Result<()> {
                 let suggestion =
                     suggest_cutoff(&trajectory, args.order, config.time_step_tolerance)
                         .with_context(|| format!("{}: residual analysis", args.input.display()))
-                        .context(DataRejected)?;
+                        .rejected()?;
                 eprintln!(
                     "residual analysis suggests a cut-off of {:.2} Hz (x {:.2}, y {:.2}, z {:.2})",
                     suggestion.cutoff_hz,
@@ -146,7 +146,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let smoothed = smooth(&trajectory, &config)
         .with_context(|| format!("{}", args.input.display()))
-        .context(DataRejected)?;
+        .rejected()?;
     write_trajectory(&args.output, &smoothed)?;
     Ok(())
 }

@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::smooth::{COMPONENTS, SmoothConfig, trajectory_spectrum};
 
-use crate::DataRejected;
+use crate::Rejected;
 use crate::plot::{Panel, Series, YScale, write_png};
 
 /// Amplitude spectrum of x, y, z (mm) and of the unrolled rotation rx, ry, rz (rad) over the
@@ -29,10 +29,10 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
-    let trajectory = read_trajectory(&args.input).context(DataRejected)?;
+    let trajectory = read_trajectory(&args.input).rejected()?;
     let spectra = trajectory_spectrum(&trajectory, SmoothConfig::default().time_step_tolerance)
         .with_context(|| format!("{}", args.input.display()))
-        .context(DataRejected)?;
+        .rejected()?;
     let is_png = args
         .output
         .extension()

@@ -1,1 +1,366 @@
-//! Recording folders (CONTRACT.md, "Recording"): one sub-folder of PNG frames per camera.
+//! Recording folders (CONTRACT.md, "Recording"):
+//! ```text
+//! recording/
+//!   recording.json        {"fps": 30.0}      (optional; default 30)
+//!   cam0/000000.png ...   one sub-folder per camera, named as in the rig
+//! ```
+//! Frames are 8- or 16-bit grayscale PNG (colour is converted to gray), sorted by file name;
+//! every camera has the same number of frames.
+
+use std::path::{Path, PathBuf};
+
+use image::{DynamicImage, GrayImage, ImageBuffer, Luma};
+use serde::{Deserialize, Serialize};
+
+use super::{FileError, parse_json, read_text, write_atomically, write_json};
+use crate::camera::Rig;
+
+/// Frame rate used when a recording has no `recording.json` (the paper's 30 Hz trigger).
+pub const DEFAULT_FPS: f64 = 30.0;
+
+/// A 16-bit grayscale image.
+pub type Gray16Image = ImageBuffer<Luma<u16>, Vec<u16>>;
+
+/// A decoded frame at its own bit depth.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GrayFrame {
+    /// 8-bit samples.
+    Eight(GrayImage),
+    /// 16-bit samples.
+    Sixteen(Gray16Image),
+}
+
+impl GrayFrame {
+    /// `(width, height)` in pixels.
+    #[must_use]
+    pub fn dimensions(&self) -> (u32, u32) {
+        match self {
+            Self::Eight(i) => i.dimensions(),
+            Self::Sixteen(i) => i.dimensions(),
+        }
+    }
+
+    /// A gray frame from any decoded image: 8- and 16-bit gray kept as they are, colour and
+    /// alpha converted to luma at the same depth.
+    #[must_use]
+    pub fn from_dynamic(image: DynamicImage) -> Self {
+        match image {
+            DynamicImage::ImageLuma8(i) => Self::Eight(i),
+            DynamicImage::ImageLuma16(i) => Self::Sixteen(i),
+            DynamicImage::ImageRgb16(_)
+            | DynamicImage::ImageRgba16(_)
+            | DynamicImage::ImageLumaA16(_) => Self::Sixteen(image.to_luma16()),
+            other => Self::Eight(other.to_luma8()),
+        }
+    }
+}
+
+/// One camera's frames in a recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraFrames {
+    /// The sub-folder's name, which must match a camera of the rig.
+    pub name: String,
+    /// Frame files, sorted by name; index = frame number.
+    pub frames: Vec<PathBuf>,
+}
+
+/// A recording folder, listed and checked but not decoded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    /// The folder.
+    pub root: PathBuf,
+    /// Frames per second.
+    pub fps: f64,
+    /// Cameras, sorted by name.
+    pub cameras: Vec<CameraFrames>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct RecordingFile {
+    fps: f64,
+}
+
+impl Recording {
+    /// Number of frames (the same for every camera).
+    #[must_use]
+    pub fn frame_count(&self) -> usize {
+        self.cameras.first().map_or(0, |c| c.frames.len())
+    }
+
+    /// Time of a frame, seconds.
+    #[must_use]
+    pub fn time_s(&self, frame: usize) -> f64 {
+        frame as f64 / self.fps
+    }
+
+    /// The frames of the camera with this name.
+    #[must_use]
+    pub fn camera(&self, name: &str) -> Option<&CameraFrames> {
+        self.cameras.iter().find(|c| c.name == name)
+    }
+}
+
+/// Lists and checks a recording folder: at least one camera sub-folder, PNG files only, the
+/// same number of frames in every camera, a valid `recording.json` when present.
+/// `fps_override` (the `--fps` flag) wins over the file.
+///
+/// # Errors
+/// [`FileError`] naming the folder, the camera or the file.
+pub fn open_recording(root: &Path, fps_override: Option<f64>) -> Result<Recording, FileError> {
+    let entries = std::fs::read_dir(root).map_err(|source| FileError::Read {
+        path: root.to_path_buf(),
+        source,
+    })?;
+    let mut cameras = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(|source| FileError::Read {
+            path: root.to_path_buf(),
+            source,
+        })?;
+        let path = entry.path();
+        if !path.is_dir() {
+            continue;
+        }
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') {
+            continue;
+        }
+        let mut frames = Vec::new();
+        for file in std::fs::read_dir(&path).map_err(|source| FileError::Read {
+            path: path.clone(),
+            source,
+        })? {
+            let file = file
+                .map_err(|source| FileError::Read {
+                    path: path.clone(),
+                    source,
+                })?
+                .path();
+            let is_png = file
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+            if file.is_file() && is_png {
+                frames.push(file);
+            }
+        }
+        frames.sort();
+        cameras.push(CameraFrames { name, frames });
+    }
+    cameras.sort_by(|a, b| a.name.cmp(&b.name));
+    if cameras.is_empty() {
+        return Err(FileError::invalid(
+            root,
+            "no camera sub-folders (expected cam0/, cam1/, ... with PNG frames)",
+        ));
+    }
+    let expected = cameras[0].frames.len();
+    if let Some(empty) = cameras.iter().find(|c| c.frames.is_empty()) {
+        return Err(FileError::invalid(
+            root,
+            format!("camera {}: no PNG frames in {}/", empty.name, empty.name),
+        ));
+    }
+    if let Some(other) = cameras.iter().find(|c| c.frames.len() != expected) {
+        return Err(FileError::invalid(
+            root,
+            format!(
+                "camera {} has {} frames but camera {} has {}",
+                other.name,
+                other.frames.len(),
+                cameras[0].name,
+                expected
+            ),
+        ));
+    }
+    let fps = match fps_override {
+        Some(fps) => fps,
+        None => {
+            let file = root.join("recording.json");
+            if file.exists() {
+                parse_json::<RecordingFile>(&file, &read_text(&file)?)?.fps
+            } else {
+                DEFAULT_FPS
+            }
+        }
+    };
+    if !(fps.is_finite() && fps > 0.0) {
+        return Err(FileError::invalid(
+            root,
+            format!("fps must be a positive number, got {fps}"),
+        ));
+    }
+    Ok(Recording {
+        root: root.to_path_buf(),
+        fps,
+        cameras,
+    })
+}
+
+/// Checks that every camera of the rig has frames in the recording (extra sub-folders are
+/// allowed and ignored).
+///
+/// # Errors
+/// [`FileError::Invalid`] naming the camera without frames.
+pub fn check_recording_against_rig(recording: &Recording, rig: &Rig) -> Result<(), FileError> {
+    for camera in &rig.cameras {
+        if recording.camera(&camera.name).is_none() {
+            let found: Vec<&str> = recording.cameras.iter().map(|c| c.name.as_str()).collect();
+            return Err(FileError::invalid(
+                &recording.root,
+                format!(
+                    "rig camera {} has no sub-folder (found: {})",
+                    camera.name,
+                    found.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Decodes one frame, checking its size when `expected_size` is given.
+///
+/// # Errors
+/// [`FileError`] naming the file: unreadable, not a PNG, truncated, or of the wrong size.
+pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<GrayFrame, FileError> {
+    let bytes = std::fs::read(path).map_err(|source| FileError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let image = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
+        .map_err(|e| FileError::invalid(path, format!("not a readable PNG: {e}")))?;
+    let frame = GrayFrame::from_dynamic(image);
+    if let Some((w, h)) = expected_size {
+        let (fw, fh) = frame.dimensions();
+        if (fw, fh) != (w, h) {
+            return Err(FileError::invalid(
+                path,
+                format!("image is {fw}x{fh}, the rig says {w}x{h}"),
+            ));
+        }
+    }
+    Ok(frame)
+}
+
+/// Encodes an 8-bit gray image as PNG and writes it atomically.
+///
+/// # Errors
+/// [`FileError::Write`].
+pub fn write_png(path: &Path, image: &GrayImage) -> Result<(), FileError> {
+    let mut bytes = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new_with_quality(
+        &mut bytes,
+        image::codecs::png::CompressionType::Fast,
+        image::codecs::png::FilterType::Sub,
+    );
+    image
+        .write_with_encoder(encoder)
+        .map_err(|e| FileError::Write {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e),
+        })?;
+    write_atomically(path, &bytes)
+}
+
+/// Writes `recording.json` with the frame rate.
+///
+/// # Errors
+/// [`FileError::Write`].
+pub fn write_recording_info(root: &Path, fps: f64) -> Result<(), FileError> {
+    write_json(&root.join("recording.json"), &RecordingFile { fps })
+}
+
+/// The file name of a frame: six digits and `.png`.
+#[must_use]
+pub fn frame_file_name(frame: usize) -> String {
+    format!("{frame:06}.png")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn make(root: &Path, cameras: &[(&str, usize)]) {
+        for (name, n) in cameras {
+            std::fs::create_dir_all(root.join(name)).unwrap();
+            for f in 0..*n {
+                write_png(
+                    &root.join(name).join(frame_file_name(f)),
+                    &GrayImage::new(8, 6),
+                )
+                .unwrap();
+            }
+        }
+    }
+
+    #[test]
+    fn lists_a_recording_and_decodes_frames() {
+        let dir = tempfile::tempdir().unwrap();
+        make(dir.path(), &[("cam1", 3), ("cam0", 3)]);
+        write_recording_info(dir.path(), 60.0).unwrap();
+        let rec = open_recording(dir.path(), None).unwrap();
+        assert_eq!(rec.fps, 60.0);
+        assert_eq!(rec.cameras[0].name, "cam0");
+        assert_eq!(rec.frame_count(), 3);
+        assert_eq!(open_recording(dir.path(), Some(25.0)).unwrap().fps, 25.0);
+        let frame = read_frame(&rec.cameras[0].frames[2], Some((8, 6))).unwrap();
+        assert_eq!(frame.dimensions(), (8, 6));
+        let message = read_frame(&rec.cameras[0].frames[2], Some((1280, 1024)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("000002.png") && message.contains("8x6"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn sixteen_bit_frames_keep_their_depth() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.png");
+        let image = Gray16Image::from_fn(4, 4, |x, _| Luma([x as u16 * 4000]));
+        image.save(&path).unwrap();
+        match read_frame(&path, None).unwrap() {
+            GrayFrame::Sixteen(i) => assert_eq!(i.get_pixel(3, 0).0[0], 12000),
+            GrayFrame::Eight(_) => panic!("16-bit frame decoded as 8-bit"),
+        }
+    }
+
+    #[test]
+    fn refuses_bad_recordings_naming_camera_and_file() {
+        let dir = tempfile::tempdir().unwrap();
+        make(dir.path(), &[("cam0", 3), ("cam1", 2)]);
+        let message = open_recording(dir.path(), None).unwrap_err().to_string();
+        assert!(
+            message.contains("camera cam1 has 2 frames but camera cam0 has 3"),
+            "{message}"
+        );
+
+        let empty = tempfile::tempdir().unwrap();
+        assert!(
+            open_recording(empty.path(), None)
+                .unwrap_err()
+                .to_string()
+                .contains("no camera sub-folders")
+        );
+
+        let bad_fps = tempfile::tempdir().unwrap();
+        make(bad_fps.path(), &[("cam0", 1)]);
+        std::fs::write(bad_fps.path().join("recording.json"), "{\"fps\": -3}").unwrap();
+        assert!(
+            open_recording(bad_fps.path(), None)
+                .unwrap_err()
+                .to_string()
+                .contains("fps")
+        );
+
+        let truncated = dir.path().join("cam0").join(frame_file_name(1));
+        let bytes = std::fs::read(&truncated).unwrap();
+        std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+        let message = read_frame(&truncated, None).unwrap_err().to_string();
+        assert!(
+            message.contains("000001.png") && message.contains("not a readable PNG"),
+            "{message}"
+        );
+    }
+}

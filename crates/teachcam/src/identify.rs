@@ -1,0 +1,384 @@
+//! Identification: which measured 3-D point is which marker of the tool.
+//!
+//! The paper's distance-matrix voting (§II-B): the distance `d_ij` between measured points `i`
+//! and `j` is matched to the model distance `d̂_kl` it equals (within a tolerance); the indices
+//! `k, l` are written into the table `ind_i`; the index that occurs most in `ind_i` is the
+//! marker that point `i` is, and a row with no match at all is a point with no marker (an
+//! occluded marker's place, or a stray). The paper's worked example (five markers, one
+//! occluded, the others shuffled) is a test of this module.
+//!
+//! Made robust here: the tolerance comes from the noise of triangulated points; a label needs
+//! a unique winner with at least two votes (one distance cannot tell `k` from `l`); two points
+//! claiming one marker keep the one with more votes; finally every labelled pair must have the
+//! model's distance, and points that disagree with most others are dropped one at a time
+//! (strays that matched a distance by chance); a point left unlabelled by a tied vote takes the
+//! one free marker whose distances it reproduces. A tool whose own distances could be mistaken
+//! for one another is refused before tracking starts ([`check_identifiable`]).
+
+use std::collections::BTreeMap;
+
+use crate::geometry::{MarkerId, Point3};
+use crate::tool::Tool;
+
+/// Options of identification.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IdentifyConfig {
+    /// Largest difference between a measured and a model distance, millimetres. Triangulated
+    /// points of the paper's rig scatter by ≈ 0.03 mm, so distances by ≈ 0.05 mm: 0.3 mm is
+    /// six of those, and leaves room for a tool model measured to 0.1 mm.
+    pub distance_tolerance_mm: f64,
+}
+
+impl Default for IdentifyConfig {
+    fn default() -> Self {
+        Self {
+            distance_tolerance_mm: 0.3,
+        }
+    }
+}
+
+/// Why a tool model cannot be identified reliably.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdentifyError {
+    /// Two of the tool's marker distances are too close to be told apart.
+    #[error(
+        "tool '{tool}' is ambiguous: distance {a:?}-{b:?} ({distance_ab_mm:.2} mm) and {c:?}-{d:?} ({distance_cd_mm:.2} mm) differ by less than twice the {tolerance_mm} mm tolerance; move a marker"
+    )]
+    Ambiguous {
+        /// Tool name.
+        tool: String,
+        /// First pair, first marker.
+        a: usize,
+        /// First pair, second marker.
+        b: usize,
+        /// First pair's distance.
+        distance_ab_mm: f64,
+        /// Second pair, first marker.
+        c: usize,
+        /// Second pair, second marker.
+        d: usize,
+        /// Second pair's distance.
+        distance_cd_mm: f64,
+        /// The tolerance.
+        tolerance_mm: f64,
+    },
+}
+
+/// A model pair of markers with their distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ModelPair {
+    a: MarkerId,
+    b: MarkerId,
+    distance_mm: f64,
+}
+
+fn model_pairs(markers: &[Point3]) -> Vec<ModelPair> {
+    let mut pairs = Vec::new();
+    for i in 0..markers.len() {
+        for j in i + 1..markers.len() {
+            pairs.push(ModelPair {
+                a: MarkerId(i),
+                b: MarkerId(j),
+                distance_mm: (markers[i] - markers[j]).norm(),
+            });
+        }
+    }
+    pairs
+}
+
+/// Refuses a tool whose marker distances could be mistaken for one another at this tolerance:
+/// any two of them closer than twice the tolerance.
+///
+/// # Errors
+/// [`IdentifyError::Ambiguous`] naming the two pairs.
+pub fn check_identifiable(tool: &Tool, config: &IdentifyConfig) -> Result<(), IdentifyError> {
+    let pairs = model_pairs(&tool.markers_in_tool);
+    for (i, p) in pairs.iter().enumerate() {
+        for q in &pairs[i + 1..] {
+            if (p.distance_mm - q.distance_mm).abs() < 2.0 * config.distance_tolerance_mm {
+                return Err(IdentifyError::Ambiguous {
+                    tool: tool.name.clone(),
+                    a: p.a.0,
+                    b: p.b.0,
+                    distance_ab_mm: p.distance_mm,
+                    c: q.a.0,
+                    d: q.b.0,
+                    distance_cd_mm: q.distance_mm,
+                    tolerance_mm: config.distance_tolerance_mm,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The paper's `ind_i` tables: for each measured point `i` and each other point `j`, the model
+/// pair whose distance `d_ij` matches (the nearest within tolerance), or `None`.
+#[must_use]
+pub fn index_tables(
+    model: &[Point3],
+    points: &[Point3],
+    config: &IdentifyConfig,
+) -> Vec<Vec<Option<(MarkerId, MarkerId)>>> {
+    let pairs = model_pairs(model);
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            points
+                .iter()
+                .enumerate()
+                .map(|(j, q)| {
+                    if i == j {
+                        return None;
+                    }
+                    let d = (p - q).norm();
+                    pairs
+                        .iter()
+                        .map(|m| ((m.distance_mm - d).abs(), m))
+                        .filter(|(error, _)| *error <= config.distance_tolerance_mm)
+                        .min_by(|x, y| x.0.total_cmp(&y.0))
+                        .map(|(_, m)| (m.a, m.b))
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The outcome of identification for one tool.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Identification {
+    /// For each identified marker, the index of its measured point.
+    pub labels: BTreeMap<MarkerId, usize>,
+    /// Measured points that are no marker of this tool.
+    pub unassigned: Vec<usize>,
+}
+
+/// Labels measured points with the tool's markers by the paper's voting, then keeps only a
+/// mutually consistent set (every labelled pair at the model's distance within tolerance).
+#[must_use]
+pub fn identify(model: &[Point3], points: &[Point3], config: &IdentifyConfig) -> Identification {
+    let tables = index_tables(model, points, config);
+    // Votes: the most frequent index of ind_i, needing a unique winner with two votes or more.
+    let mut claims: BTreeMap<MarkerId, (usize, usize)> = BTreeMap::new(); // marker -> (point, votes)
+    for (i, table) in tables.iter().enumerate() {
+        let mut votes = vec![0_usize; model.len()];
+        for (a, b) in table.iter().flatten() {
+            votes[a.0] += 1;
+            votes[b.0] += 1;
+        }
+        let best = votes.iter().copied().max().unwrap_or(0);
+        if best < 2 || votes.iter().filter(|v| **v == best).count() > 1 {
+            continue;
+        }
+        let Some(marker) = votes.iter().position(|v| *v == best).map(MarkerId) else {
+            continue;
+        };
+        match claims.get(&marker) {
+            Some(&(_, other_votes)) if other_votes >= best => {}
+            _ => {
+                claims.insert(marker, (i, best));
+            }
+        }
+    }
+    let mut labels: BTreeMap<MarkerId, usize> =
+        claims.into_iter().map(|(m, (p, _))| (m, p)).collect();
+    // Consistency: drop the label that disagrees with the most others until none disagrees.
+    loop {
+        let disagreements: Vec<(MarkerId, usize)> = labels
+            .iter()
+            .map(|(m, p)| {
+                let count = labels
+                    .iter()
+                    .filter(|(n, q)| {
+                        n != &m
+                            && ((points[*p] - points[**q]).norm()
+                                - (model[m.0] - model[n.0]).norm())
+                            .abs()
+                                > config.distance_tolerance_mm
+                    })
+                    .count();
+                (*m, count)
+            })
+            .collect();
+        let Some(&(worst, count)) = disagreements
+            .iter()
+            .max_by_key(|(m, c)| (*c, std::cmp::Reverse(*m)))
+        else {
+            break;
+        };
+        if count == 0 {
+            break;
+        }
+        labels.remove(&worst);
+    }
+    complete(model, points, config, &mut labels);
+    let unassigned = (0..points.len())
+        .filter(|i| !labels.values().any(|p| p == i))
+        .collect();
+    Identification { labels, unassigned }
+}
+
+/// Completion: a point left without a label (its votes tied, e.g. because a stray matched one
+/// of its distances by chance) takes the one free marker whose model distances to at least two
+/// labelled markers it reproduces, when no other point could take it.
+fn complete(
+    model: &[Point3],
+    points: &[Point3],
+    config: &IdentifyConfig,
+    labels: &mut BTreeMap<MarkerId, usize>,
+) {
+    loop {
+        if labels.len() < 2 {
+            return;
+        }
+        let fits = |point: usize, marker: usize, labels: &BTreeMap<MarkerId, usize>| {
+            labels.iter().all(|(m, q)| {
+                ((points[point] - points[*q]).norm() - (model[marker] - model[m.0]).norm()).abs()
+                    <= config.distance_tolerance_mm
+            })
+        };
+        let free_points: Vec<usize> = (0..points.len())
+            .filter(|i| !labels.values().any(|p| p == i))
+            .collect();
+        let free_markers: Vec<usize> = (0..model.len())
+            .filter(|m| !labels.contains_key(&MarkerId(*m)))
+            .collect();
+        let mut added = None;
+        for &point in &free_points {
+            let markers: Vec<usize> = free_markers
+                .iter()
+                .copied()
+                .filter(|&m| fits(point, m, labels))
+                .collect();
+            if let [marker] = markers[..] {
+                let rivals = free_points
+                    .iter()
+                    .filter(|&&q| q != point && fits(q, marker, labels))
+                    .count();
+                if rivals == 0 {
+                    added = Some((MarkerId(marker), point));
+                    break;
+                }
+            }
+        }
+        match added {
+            Some((marker, point)) => {
+                labels.insert(marker, point);
+            }
+            None => return,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A five-marker model with well separated distances, for the paper's example.
+    fn five_markers() -> Vec<Point3> {
+        [
+            [0.0, 0.0, 0.0],
+            [71.0, 5.0, 0.0],
+            [12.0, 48.0, 3.0],
+            [-40.0, 25.0, 30.0],
+            [30.0, -35.0, 22.0],
+        ]
+        .iter()
+        .map(|p| Point3::new(p[0], p[1], p[2]))
+        .collect()
+    }
+
+    #[test]
+    fn the_papers_worked_example() {
+        // §II-B, equation 3: five markers expected, the 4th not reconstructed, the others
+        // acquired in the order (1, 3, 5, 2) (1-based model indices).
+        let model = five_markers();
+        let config = IdentifyConfig::default();
+        check_identifiable(
+            &Tool::new(
+                "five".into(),
+                10.0,
+                model.clone(),
+                crate::geometry::Pose::identity(),
+            )
+            .unwrap(),
+            &config,
+        )
+        .unwrap();
+        let acquired = [0, 2, 4, 1];
+        let points: Vec<Point3> = acquired.iter().map(|&k| model[k]).collect();
+        let tables = index_tables(&model, &points, &config);
+        // ind_1 = (0 1 1 1 / 0 3 5 2), ind_2 = (3 0 3 3 / 1 0 5 2),
+        // ind_3 = (5 5 0 5 / 1 3 0 2), ind_4 = (2 2 2 0 / 1 3 5 0): as unordered 0-based pairs.
+        let paper: [[Option<(usize, usize)>; 4]; 4] = [
+            [None, Some((0, 2)), Some((0, 4)), Some((0, 1))],
+            [Some((2, 0)), None, Some((2, 4)), Some((2, 1))],
+            [Some((4, 0)), Some((4, 2)), None, Some((4, 1))],
+            [Some((1, 0)), Some((1, 2)), Some((1, 4)), None],
+        ];
+        for (i, row) in paper.iter().enumerate() {
+            for (j, expected) in row.iter().enumerate() {
+                let found = tables[i][j].map(|(a, b)| (a.0.min(b.0), a.0.max(b.0)));
+                assert_eq!(
+                    found,
+                    expected.map(|(a, b)| (a.min(b), a.max(b))),
+                    "ind_{} column {}",
+                    i + 1,
+                    j + 1
+                );
+            }
+        }
+        let id = identify(&model, &points, &config);
+        // "the 1st marker corresponds to the 1st one, the 2nd to the 3rd, the 3rd to the 5th,
+        // the 4th to the 2nd; a marker is missing (the 4th)".
+        let expected: BTreeMap<MarkerId, usize> = [
+            (MarkerId(0), 0),
+            (MarkerId(2), 1),
+            (MarkerId(4), 2),
+            (MarkerId(1), 3),
+        ]
+        .into();
+        assert_eq!(id.labels, expected);
+        assert!(!id.labels.contains_key(&MarkerId(3)));
+        assert!(id.unassigned.is_empty());
+    }
+
+    #[test]
+    fn an_ambiguous_tool_is_refused_naming_the_pairs() {
+        // The contract's example brush: markers 0-2 (51.1 mm) and 2-3 (51.8 mm) are 0.7 mm apart.
+        let markers = [
+            [0.0, 0.0, 0.0],
+            [62.0, 8.0, 0.0],
+            [18.0, 47.0, 9.0],
+            [-26.0, 71.0, 22.0],
+        ]
+        .iter()
+        .map(|p| Point3::new(p[0], p[1], p[2]))
+        .collect();
+        let tool = Tool::new(
+            "brush".into(),
+            10.0,
+            markers,
+            crate::geometry::Pose::identity(),
+        )
+        .unwrap();
+        let strict = IdentifyConfig {
+            distance_tolerance_mm: 0.5,
+        };
+        let message = check_identifiable(&tool, &strict).unwrap_err().to_string();
+        assert!(
+            message.contains("0-2") && message.contains("2-3"),
+            "{message}"
+        );
+        assert!(
+            check_identifiable(
+                &tool,
+                &IdentifyConfig {
+                    distance_tolerance_mm: 0.3
+                }
+            )
+            .is_ok()
+        );
+    }
+}
