@@ -467,8 +467,10 @@ fn nurbs_fit(
 ) -> Result<bspline::LeastSquaresBSpline, bspline::BSplineError> {
     let times: Vec<f64> = (0..samples).map(|i| i as f64 / sample_rate_hz).collect();
     let duration_s = times.last().copied().unwrap_or(0.0);
+    // `as` saturates, and so does the sum: a tiny spacing asks for more control points than
+    // samples and is refused as underdetermined, before anything is allocated.
     let spans = (duration_s / knot_spacing_s).ceil().max(1.0) as usize;
-    bspline::LeastSquaresBSpline::new(&times, degree, spans + degree)
+    bspline::LeastSquaresBSpline::new(&times, degree, spans.saturating_add(degree))
 }
 
 fn check_method(

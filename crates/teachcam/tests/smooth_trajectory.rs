@@ -333,3 +333,77 @@ fn bad_input_is_refused_with_the_frame() {
     }
     assert!(message(&nan, &lowpass(5.0, 2)).contains("frame 5"));
 }
+
+mod never_panics {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn method() -> impl Strategy<Value = Method> {
+        prop_oneof![
+            (0.0f64..60.0, 0usize..14).prop_map(|(cutoff_hz, order)| Method::Lowpass {
+                cutoff_hz,
+                order,
+                convention: CutoffConvention::WinterTwoPass,
+            }),
+            Just(Method::Spline {
+                ends: SplineEnds::Natural
+            }),
+            (1usize..60).prop_map(|max_control_points| Method::Bezier { max_control_points }),
+            (0usize..8, prop_oneof![-0.1f64..1.0, 1e-300f64..1e-250]).prop_map(
+                |(degree, knot_spacing_s)| Method::Nurbs {
+                    degree,
+                    knot_spacing_s
+                }
+            ),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+        /// Any trajectory (gaps anywhere, wild values, jittered times) with any method gives a
+        /// trajectory of the same frames or an error, never a panic; poses keep unit
+        /// quaternions and finite numbers.
+        #[test]
+        fn smooth_returns_a_result_for_any_input(
+            values in proptest::collection::vec((any::<bool>(), -1e4f64..1e4, -4.0f64..4.0), 0..60),
+            jitter in proptest::option::of(0usize..60),
+            max_gap_frames in 0usize..8,
+            method in method(),
+        ) {
+            let mut samples: Vec<Sample> = values
+                .iter()
+                .enumerate()
+                .map(|(i, (present, x, angle))| {
+                    let world_from_tool = pose_from_parts(
+                        Vector3::new(*x, -x, 1.0),
+                        UnitQuaternion::from_euler_angles(*angle, -angle, 0.5 * angle),
+                    );
+                    let mut s = Sample::measured(FrameIndex(i), i as f64 / 30.0, ToolPose {
+                        world_from_tool,
+                        tip_in_world: world_from_tool * TIP_IN_TOOL,
+                        markers: 4,
+                        rms_mm: 0.0,
+                    });
+                    if !present {
+                        s.pose = None;
+                    }
+                    s
+                })
+                .collect();
+            if let Some(j) = jitter.filter(|j| *j < samples.len()) {
+                samples[j].time_s += 0.01;
+            }
+            let t = Trajectory { samples };
+            let config = SmoothConfig { method, max_gap_frames, ..SmoothConfig::default() };
+            if let Ok(out) = smooth(&t, &config) {
+                prop_assert_eq!(out.len(), t.len());
+                for s in &out.samples {
+                    if let Some(p) = s.pose {
+                        prop_assert!((p.world_from_tool.rotation.quaternion().norm() - 1.0).abs() < 1e-9);
+                        prop_assert!(p.world_from_tool.translation.vector.iter().all(|v| v.is_finite()));
+                    }
+                }
+            }
+        }
+    }
+}

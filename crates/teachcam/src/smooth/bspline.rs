@@ -107,7 +107,7 @@ impl LeastSquaresBSpline {
         degree: usize,
         control_points: usize,
     ) -> Result<Self, BSplineError> {
-        if degree == 0 || control_points < degree + 1 {
+        if degree == 0 || control_points <= degree {
             return Err(BSplineError::BadShape {
                 degree,
                 control_points,
