@@ -37,11 +37,8 @@ enum Command {
     UncertaintyMap(cmd::uncertainty_map::Args),
     /// Check a tool's marker layout: identification margin and expected tip error.
     ToolCheck(cmd::tool_check::Args),
-    /// Smooth a trajectory (low-pass, spline, Bezier or NURBS), rotations on SO(3).
     Smooth(cmd::smooth::Args),
-    /// Amplitude spectrum of each trajectory component, as CSV or PNG.
     Spectrum(cmd::spectrum::Args),
-    /// Rerun the paper's comparison of smoothing methods on sinusoids plus noise.
     SmoothingStudy(cmd::smoothing_study::Args),
 }
 

@@ -84,6 +84,17 @@ pub fn write_png(path: &Path, panels: &[Panel]) -> Result<()> {
     Ok(())
 }
 
+/// A tick label: plain decimals for ordinary magnitudes, `1e-5` style otherwise.
+fn tick(v: f64) -> String {
+    let magnitude = v.abs();
+    if v == 0.0 || (1e-2..1e5).contains(&magnitude) {
+        let text = format!("{v:.3}");
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
 fn draw(
     buffer: &mut [u8],
     height: u32,
@@ -136,6 +147,7 @@ fn draw(
                     .x_desc(panel.x_label.as_str())
                     .y_desc(panel.y_label.as_str())
                     .label_style(("sans-serif", 13))
+                    .y_label_formatter(&|v: &f64| tick(*v))
                     .draw()?;
                 for (k, s) in panel.series.iter().enumerate() {
                     let color = colors[k % colors.len()];

@@ -10,8 +10,10 @@ use teachcam::smooth::{CutoffConvention, Method, SmoothConfig, smooth, suggest_c
 
 use crate::Rejected;
 
-/// Smooth a trajectory: zero-phase Butterworth low-pass (the paper's choice), cubic spline,
-/// Bezier or NURBS (least-squares B-spline). Rotations are smoothed on SO(3), the tip is
+/// Smooth a trajectory: low-pass, spline, Bezier or NURBS, rotations on SO(3).
+///
+/// Zero-phase Butterworth low-pass (the paper's choice), cubic spline, Bezier or NURBS
+/// (least-squares B-spline). Rotations are smoothed on SO(3), the tip is
 /// recomputed from the smoothed pose, gaps up to --max-gap frames are filled (column `filled`)
 /// and longer gaps stay gaps.
 ///
@@ -27,7 +29,8 @@ pub struct Args {
     /// Smoothing method.
     #[arg(long, value_enum, default_value_t = MethodName::Lowpass)]
     pub method: MethodName,
-    /// Low-pass cut-off in Hz, or `auto` for Winter's residual analysis of x, y, z.
+    /// Low-pass cut-off in Hz, or `auto`: residual analysis of x, y, z picks the cut-off of least
+    /// estimated error against the motion (printed on stderr).
     #[arg(long, default_value = "10")]
     pub cutoff: String,
     /// Low-pass order (of each of the two passes).

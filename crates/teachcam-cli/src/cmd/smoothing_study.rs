@@ -9,8 +9,9 @@ use teachcam::smooth::study::{StudyConfig, run_study};
 
 use crate::plot::{Panel, Series, YScale, write_png};
 
-/// Rerun the paper's comparison of smoothing methods on its trajectory model: a sum of
-/// sinusoids plus white Gaussian noise, and the noise alone. Prints, per method, the RMS error
+/// Rerun the paper's comparison of smoothing methods (Figs. 4-8).
+///
+/// The paper's trajectory model: a sum of sinusoids plus white Gaussian noise, and the noise alone. Prints, per method, the RMS error
 /// against the clean signal, the fraction of each sinusoid's amplitude kept and of the noise
 /// kept; writes `study.csv` (every signal) and `study.png` (one panel per method, as the
 /// paper's figures) into the output folder.

@@ -10,6 +10,8 @@ use teachcam::smooth::{COMPONENTS, SmoothConfig, trajectory_spectrum};
 use crate::Rejected;
 use crate::plot::{Panel, Series, YScale, write_png};
 
+/// Amplitude spectrum of each trajectory component, as CSV or PNG.
+///
 /// Amplitude spectrum of x, y, z (mm) and of the unrolled rotation rx, ry, rz (rad) over the
 /// longest gap-free segment, to choose a low-pass cut-off: the motion sits at low
 /// frequencies, the measurement noise spreads flat up to Nyquist.
