@@ -89,6 +89,17 @@ impl Method {
     };
 }
 
+/// What to do with a run too short for the method (the low-pass's padding, or fewer samples
+/// than NURBS control points).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ShortRuns {
+    /// Refuse the trajectory, naming the run's frames.
+    #[default]
+    Reject,
+    /// Turn the run into a gap (empty rows): explicit, never unsmoothed data in a smoothed file.
+    Gap,
+}
+
 /// How to smooth a trajectory.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SmoothConfig {
@@ -108,6 +119,8 @@ pub struct SmoothConfig {
     /// 1e-3: the CSV's microsecond rounding is 1e-4 of a 100 Hz step; a dropped or doubled
     /// frame is 1.
     pub time_step_tolerance: f64,
+    /// Runs too short for the method. Default [`ShortRuns::Reject`]: the user decides.
+    pub short_runs: ShortRuns,
 }
 
 impl Default for SmoothConfig {
@@ -118,6 +131,7 @@ impl Default for SmoothConfig {
             tip_in_tool: None,
             tip_tolerance_mm: 0.01,
             time_step_tolerance: 1e-3,
+            short_runs: ShortRuns::Reject,
         }
     }
 }
@@ -296,8 +310,15 @@ pub fn smooth(trajectory: &Trajectory, config: &SmoothConfig) -> Result<Trajecto
     let mut out = trajectory.clone();
     for run in gaps::runs(trajectory, config.max_gap_frames) {
         let samples = &trajectory.samples[run.clone()];
-        let smoothed = smooth_run(samples, &config.method, timing.sample_rate_hz, &tip_in_tool)?;
-        out.samples[run].copy_from_slice(&smoothed);
+        match smooth_run(samples, &config.method, timing.sample_rate_hz, &tip_in_tool) {
+            Ok(smoothed) => out.samples[run].copy_from_slice(&smoothed),
+            Err(e) if config.short_runs == ShortRuns::Gap && is_too_short(&e) => {
+                for s in &mut out.samples[run] {
+                    *s = Sample::gap(s.frame, s.time_s);
+                }
+            }
+            Err(e) => return Err(e),
+        }
     }
     Ok(out)
 }
@@ -568,6 +589,19 @@ fn smooth_run(
             }
         })
         .collect())
+}
+
+fn is_too_short(error: &SmoothError) -> bool {
+    matches!(
+        error,
+        SmoothError::Filter {
+            source: FilterError::TooShort { .. },
+            ..
+        } | SmoothError::Nurbs {
+            source: bspline::BSplineError::Underdetermined { .. },
+            ..
+        }
+    )
 }
 
 fn rename_frames(error: SmoothError, first: usize, last: usize) -> SmoothError {

@@ -70,6 +70,7 @@ fn butterworth_design_and_filtfilt_match_scipy_to_1e9() {
         let y = filter.filtfilt(&numbers(&case["x"])).unwrap();
         let expected = numbers(&case["y"]);
         let error = relative_error(&y, &expected);
+        eprintln!("filtfilt {label}: relative error {error:.1e}");
         assert!(error < 1e-9, "filtfilt {label}: relative error {error:e}");
     }
 }
@@ -117,6 +118,7 @@ fn least_squares_bspline_matches_scipy_make_lsq_spline() {
         let c = fit.coefficients(&y);
         let e = relative_error(&c, &numbers(&case["coefficients"]));
         assert!(e < 1e-9, "degree {degree}: coefficients {e:e}");
+        eprintln!("lsq degree {degree}: coefficients {e:.1e}");
         let e = relative_error(&fit.fit(&y), &numbers(&case["fitted"]));
         assert!(e < 1e-10, "degree {degree}: fitted {e:e}");
     }

@@ -6,7 +6,7 @@ use teachcam::geometry::{FrameIndex, Point3, pose_from_parts};
 use teachcam::smooth::bezier::bezier_at_samples;
 use teachcam::smooth::butterworth::Butterworth;
 use teachcam::smooth::spline::SplineEnds;
-use teachcam::smooth::{CutoffConvention, Method, SmoothConfig, SmoothError, smooth};
+use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, SmoothError, smooth};
 use teachcam::trajectory::{PoseSource, Sample, ToolPose, Trajectory};
 
 const TIP_IN_TOOL: Point3 = Point3::new(0.0, -15.0, -180.0);
@@ -311,6 +311,15 @@ fn bad_input_is_refused_with_the_frame() {
         too_short.contains("frames 0..=9") && too_short.contains("padding"),
         "{too_short}"
     );
+
+    // The same run turned into an explicit gap on request.
+    let as_gap = SmoothConfig {
+        short_runs: ShortRuns::Gap,
+        ..config
+    };
+    let out = smooth(&short, &as_gap).unwrap();
+    assert!(out.samples[..13].iter().all(|s| s.pose.is_none()));
+    assert!(out.samples[13..].iter().all(|s| s.pose.is_some()));
 
     let mut moved_tip = good.clone();
     if let Some(p) = moved_tip.samples[33].pose.as_mut() {

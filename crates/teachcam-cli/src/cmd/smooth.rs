@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use teachcam::io::tool::read_tool;
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::smooth::spline::SplineEnds;
-use teachcam::smooth::{CutoffConvention, Method, SmoothConfig, smooth, suggest_cutoff};
+use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, smooth, suggest_cutoff};
 
 use crate::Rejected;
 
@@ -54,6 +54,10 @@ pub struct Args {
     /// Fill gaps of at most this many frames; longer gaps stay gaps.
     #[arg(long, default_value_t = 10)]
     pub max_gap: usize,
+    /// Runs too short for the method (the low-pass's padding is 3·(order+1) samples): `reject`
+    /// the file, or make them `gap`s (empty rows).
+    #[arg(long, value_enum, default_value_t = Short::Reject)]
+    pub short_runs: Short,
     /// Tool file giving the tip; without it the tip is recovered from the trajectory.
     #[arg(long)]
     pub tool: Option<PathBuf>,
@@ -73,6 +77,15 @@ pub enum MethodName {
     Bezier,
     /// Least-squares B-spline at the original times.
     Nurbs,
+}
+
+/// Policies for runs too short for the method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Short {
+    /// Refuse the file, naming the run's frames.
+    Reject,
+    /// Make the run a gap.
+    Gap,
 }
 
 /// Cut-off conventions.
@@ -98,6 +111,10 @@ pub fn run(args: &Args) -> Result<()> {
     let trajectory = read_trajectory(&args.input).rejected()?;
     let mut config = SmoothConfig {
         max_gap_frames: args.max_gap,
+        short_runs: match args.short_runs {
+            Short::Reject => ShortRuns::Reject,
+            Short::Gap => ShortRuns::Gap,
+        },
         ..SmoothConfig::default()
     };
     if let Some(path) = &args.tool {
