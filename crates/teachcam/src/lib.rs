@@ -32,7 +32,10 @@
 //! - [`smooth`]: the paper's four smoothers (low-pass, spline, Bezier, NURBS), SO(3)-aware,
 //!   with spectrum, cut-off suggestion and gap filling.
 //! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
+//! - [`robot`]: vision↔robot frames, IRB 120 kinematics, the robot check, RAPID/KRL/URScript.
 //! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
+//! - [`c3d`]: C3D motion-capture files in and out.
+//! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
 
 pub mod geometry;
 pub mod camera;
@@ -47,4 +50,7 @@ pub mod register;
 pub mod track;
 pub mod smooth;
 pub mod metrology;
+pub mod robot;
 pub mod sim;
+pub mod c3d;
+pub mod vendor;
