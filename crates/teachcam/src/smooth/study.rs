@@ -238,12 +238,14 @@ mod tests {
         assert!(bezier.noise_kept < 0.2, "{}", bezier.noise_kept);
         // The faster the motion, the more it is flattened: a sinusoid of period T samples
         // keeps about cos(π/T)^(N-1) of its amplitude mid-curve (see `bezier`): 0.96, 0.82 and
-        // 0.53 here, more near the ends where the curve meets the samples.
+        // 0.53 here, more near the ends where the curve meets the samples (measured 0.65-0.67
+        // for the fastest over the whole curve, depending on the noise draw).
         let kept = &bezier.amplitude_kept;
         assert!(
-            kept[0] > kept[1] && kept[1] > kept[2] && kept[2] < 0.6,
+            kept[0] > kept[1] && kept[1] > kept[2] && kept[2] < 0.75,
             "{kept:?}"
         );
+        assert!(kept[2] < lowpass.amplitude_kept[2] - 0.2);
         // Its error exceeds that of the raw, noisy signal.
         assert!(
             bezier.rms_error_mm > r.raw_rms_error_mm,
