@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod plot;
 mod progress;
 
 /// Program an industrial robot by demonstration: marker tracking with calibrated cameras,
@@ -33,6 +34,9 @@ enum Command {
     ToolCheck(cmd::tool_check::Args),
     C3d(cmd::c3d::Args),
     Import(cmd::import::Args),
+    Smooth(cmd::smooth::Args),
+    Spectrum(cmd::spectrum::Args),
+    SmoothingStudy(cmd::smoothing_study::Args),
     Check(cmd::check::Args),
     Export(cmd::export::Args),
     Align(cmd::align::Args),
@@ -78,6 +82,9 @@ fn main() -> ExitCode {
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
         Command::C3d(args) => cmd::c3d::run(&args),
         Command::Import(args) => cmd::import::run(&args),
+        Command::Smooth(args) => cmd::smooth::run(&args),
+        Command::Spectrum(args) => cmd::spectrum::run(&args),
+        Command::SmoothingStudy(args) => cmd::smoothing_study::run(&args),
         Command::Check(args) => cmd::check::run(&args),
         Command::Export(args) => cmd::export::run(&args),
         Command::Align(args) => cmd::align::run(&args),
