@@ -32,6 +32,10 @@ enum Command {
     Repeatability(cmd::repeatability::Args),
     /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
     Uncertainty(cmd::uncertainty::Args),
+    /// First-order tip uncertainty over a grid of the working volume.
+    UncertaintyMap(cmd::uncertainty_map::Args),
+    /// Check a tool's marker layout: identification margin and expected tip error.
+    ToolCheck(cmd::tool_check::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -67,6 +71,8 @@ fn main() -> ExitCode {
         Command::Detect(args) => cmd::detect::run(&args),
         Command::Repeatability(args) => cmd::repeatability::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
+        Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
+        Command::ToolCheck(args) => cmd::tool_check::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

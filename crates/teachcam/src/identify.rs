@@ -11,7 +11,8 @@
 //! a unique winner with at least two votes (one distance cannot tell `k` from `l`); two points
 //! claiming one marker keep the one with more votes; finally every labelled pair must have the
 //! model's distance, and points that disagree with most others are dropped one at a time
-//! (strays that matched a distance by chance). A tool whose own distances could be mistaken
+//! (strays that matched a distance by chance); a point left unlabelled by a tied vote takes the
+//! one free marker whose distances it reproduces. A tool whose own distances could be mistaken
 //! for one another is refused before tracking starts ([`check_identifiable`]).
 
 use std::collections::BTreeMap;
@@ -211,10 +212,63 @@ pub fn identify(model: &[Point3], points: &[Point3], config: &IdentifyConfig) ->
         }
         labels.remove(&worst);
     }
+    complete(model, points, config, &mut labels);
     let unassigned = (0..points.len())
         .filter(|i| !labels.values().any(|p| p == i))
         .collect();
     Identification { labels, unassigned }
+}
+
+/// Completion: a point left without a label (its votes tied, e.g. because a stray matched one
+/// of its distances by chance) takes the one free marker whose model distances to at least two
+/// labelled markers it reproduces, when no other point could take it.
+fn complete(
+    model: &[Point3],
+    points: &[Point3],
+    config: &IdentifyConfig,
+    labels: &mut BTreeMap<MarkerId, usize>,
+) {
+    loop {
+        if labels.len() < 2 {
+            return;
+        }
+        let fits = |point: usize, marker: usize, labels: &BTreeMap<MarkerId, usize>| {
+            labels.iter().all(|(m, q)| {
+                ((points[point] - points[*q]).norm() - (model[marker] - model[m.0]).norm()).abs()
+                    <= config.distance_tolerance_mm
+            })
+        };
+        let free_points: Vec<usize> = (0..points.len())
+            .filter(|i| !labels.values().any(|p| p == i))
+            .collect();
+        let free_markers: Vec<usize> = (0..model.len())
+            .filter(|m| !labels.contains_key(&MarkerId(*m)))
+            .collect();
+        let mut added = None;
+        for &point in &free_points {
+            let markers: Vec<usize> = free_markers
+                .iter()
+                .copied()
+                .filter(|&m| fits(point, m, labels))
+                .collect();
+            if let [marker] = markers[..] {
+                let rivals = free_points
+                    .iter()
+                    .filter(|&&q| q != point && fits(q, marker, labels))
+                    .count();
+                if rivals == 0 {
+                    added = Some((MarkerId(marker), point));
+                    break;
+                }
+            }
+        }
+        match added {
+            Some((marker, point)) => {
+                labels.insert(marker, point);
+            }
+            None => return,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -20,10 +20,10 @@
 //! # Modules, in the order data flows
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
-//! - [`detect`]: marker blobs in an image, with sub-pixel centres.
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
 //! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
+//! - [`detect`]: marker blobs in an image, with sub-pixel centres (§II-A, §IV-A).
 //! - [`correspond`]: which blobs in different cameras show the same marker (§II-A).
 //! - [`triangulate`]: 3-D points from corresponding blobs.
 //! - [`identify`]: which point is which marker, by distance-matrix voting (§II-B).
@@ -32,16 +32,16 @@
 //! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
 //! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
 
-pub mod camera;
-pub mod correspond;
-pub mod detect;
 pub mod geometry;
-pub mod identify;
-pub mod io;
-pub mod metrology;
-pub mod register;
-pub mod sim;
+pub mod camera;
 pub mod tool;
-pub mod track;
 pub mod trajectory;
+pub mod io;
+pub mod detect;
+pub mod correspond;
 pub mod triangulate;
+pub mod identify;
+pub mod register;
+pub mod track;
+pub mod metrology;
+pub mod sim;

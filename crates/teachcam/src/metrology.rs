@@ -122,6 +122,17 @@ fn check_inputs(
     Ok(views)
 }
 
+/// One Monte Carlo trial's errors against the true pose.
+#[derive(Debug, Clone, Copy)]
+struct TrialError {
+    /// Tip error, world frame, millimetres.
+    tip: Vector3<f64>,
+    /// Tool-origin error, world frame, millimetres.
+    origin: Vector3<f64>,
+    /// Rotation error vector, world frame, radians.
+    rotation: Vector3<f64>,
+}
+
 /// World-frame rotation vector of `measured · trueᵀ`.
 fn rotation_error(measured: &Pose, truth: &Pose) -> Vector3<f64> {
     (measured.rotation * truth.rotation.inverse()).scaled_axis()
@@ -162,8 +173,7 @@ pub fn monte_carlo(
     let tip_true = world_from_tool * tool.tip_in_tool();
     let noise = Normal::new(0.0, noise_px).map_err(|_| MetrologyError::BadNoise(noise_px))?;
     const CHUNK: usize = 256;
-    let chunks: Vec<Vec<Option<(Vector3<f64>, Vector3<f64>, Vector3<f64>)>>> = (0..trials
-        .div_ceil(CHUNK))
+    let chunks: Vec<Vec<Option<TrialError>>> = (0..trials.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
             let mut rng = ChaCha8Rng::seed_from_u64(
@@ -171,7 +181,7 @@ pub fn monte_carlo(
             );
             let count = CHUNK.min(trials - chunk * CHUNK);
             (0..count)
-                .map(|_| {
+                .map(|_| -> Option<TrialError> {
                     let mut frame = Views::new();
                     for (camera, _, px) in &views {
                         let noisy = Pixel::new(
@@ -181,12 +191,12 @@ pub fn monte_carlo(
                         frame.entry(*camera).or_default().push(noisy);
                     }
                     let pose = tracker.track_frame(&frame).outcome.ok()?;
-                    Some((
-                        pose.tip_in_world - tip_true,
-                        pose.world_from_tool.translation.vector
+                    Some(TrialError {
+                        tip: pose.tip_in_world - tip_true,
+                        origin: pose.world_from_tool.translation.vector
                             - world_from_tool.translation.vector,
-                        rotation_error(&pose.world_from_tool, world_from_tool),
-                    ))
+                        rotation: rotation_error(&pose.world_from_tool, world_from_tool),
+                    })
                 })
                 .collect()
         })
@@ -196,9 +206,9 @@ pub fn monte_carlo(
     if ok.len() < 2 {
         return Err(MetrologyError::AllTrialsFailed { trials });
     }
-    let tips: Vec<Vector3<f64>> = ok.iter().map(|r| r.0).collect();
-    let origins: Vec<Vector3<f64>> = ok.iter().map(|r| r.1).collect();
-    let rotations: Vec<Vector3<f64>> = ok.iter().map(|r| r.2).collect();
+    let tips: Vec<Vector3<f64>> = ok.iter().map(|r| r.tip).collect();
+    let origins: Vec<Vector3<f64>> = ok.iter().map(|r| r.origin).collect();
+    let rotations: Vec<Vector3<f64>> = ok.iter().map(|r| r.rotation).collect();
     let (tip_std_mm, tip_mean) = std_of(&tips);
     let (position_std_mm, _) = std_of(&origins);
     let (rotation_std, _) = std_of(&rotations);
@@ -291,10 +301,217 @@ pub fn first_order(
     })
 }
 
+/// One cell of an uncertainty map.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct MapCell {
+    /// Where the tool's origin is, world frame, millimetres.
+    pub position: [f64; 3],
+    /// First-order RMS tip error there with every camera, `None` where the tool is not seen
+    /// well enough to be tracked.
+    pub tip_rms_mm: Option<f64>,
+    /// The largest first-order RMS tip error with any one camera left out, `None` where some
+    /// camera is indispensable (the paper asks that the rig work with one camera missing).
+    pub tip_rms_one_camera_dropped_mm: Option<f64>,
+}
+
+/// First-order tip uncertainty over a grid of tool positions at one orientation: where to
+/// work, where not.
+#[must_use]
+pub fn uncertainty_map(
+    rig: &Rig,
+    tool: &Tool,
+    orientation: &nalgebra::UnitQuaternion<f64>,
+    positions: &[Point3],
+    noise_px: f64,
+) -> Vec<MapCell> {
+    positions
+        .par_iter()
+        .map(|p| {
+            let pose = crate::geometry::pose_from_parts(p.coords, *orientation);
+            let tip_rms_mm = first_order(rig, tool, &pose, noise_px)
+                .ok()
+                .map(|u| u.tip_rms_mm);
+            let dropped: Option<Vec<f64>> = (0..rig.len())
+                .map(|leave_out| {
+                    let mut fewer = rig.clone();
+                    fewer.cameras.remove(leave_out);
+                    first_order(&fewer, tool, &pose, noise_px)
+                        .ok()
+                        .map(|u| u.tip_rms_mm)
+                })
+                .collect();
+            MapCell {
+                position: [p.x, p.y, p.z],
+                tip_rms_mm,
+                tip_rms_one_camera_dropped_mm: dropped.and_then(|d| d.into_iter().reduce(f64::max)),
+            }
+        })
+        .collect()
+}
+
+/// What a tool's marker layout promises, before any recording.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ToolDesign {
+    /// The two marker pairs whose distances are closest, and that gap, millimetres: the
+    /// identification safety margin.
+    pub closest_distances: ClosestDistances,
+    /// The gap as a multiple of the identification tolerance: below 2 the tool is refused,
+    /// below 4 it is marginal.
+    pub gap_over_tolerance: f64,
+    /// Fitzpatrick–West–Maurer target-registration-error factor: expected RMS tip error per
+    /// unit RMS marker localisation error, `sqrt((1 + Σ d_k²/(3 f_k²)) / N)`.
+    pub tip_error_per_marker_error: f64,
+    /// RMS distance of the markers from their centroid, millimetres.
+    pub marker_spread_mm: f64,
+    /// Distance from the markers' centroid to the tip, millimetres.
+    pub tip_distance_mm: f64,
+    /// Plain-language warnings (marginal gaps, a tip far outside the cluster).
+    pub warnings: Vec<String>,
+}
+
+/// The closest pair of marker distances.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ClosestDistances {
+    /// First pair of markers.
+    pub pair_a: [usize; 2],
+    /// Its distance, millimetres.
+    pub distance_a_mm: f64,
+    /// Second pair of markers.
+    pub pair_b: [usize; 2],
+    /// Its distance, millimetres.
+    pub distance_b_mm: f64,
+    /// Difference, millimetres.
+    pub gap_mm: f64,
+}
+
+/// Checks a tool's layout: the identification margin (smallest difference between two marker
+/// distances, against the tolerance) and the expected tip error per unit marker error
+/// (Fitzpatrick, West & Maurer 1998, eq. 46).
+#[must_use]
+pub fn tool_design(tool: &Tool, distance_tolerance_mm: f64) -> ToolDesign {
+    let m = &tool.markers_in_tool;
+    let mut pairs = Vec::new();
+    for i in 0..m.len() {
+        for j in i + 1..m.len() {
+            pairs.push(([i, j], (m[i] - m[j]).norm()));
+        }
+    }
+    let mut closest = ClosestDistances {
+        pair_a: [0, 0],
+        distance_a_mm: 0.0,
+        pair_b: [0, 0],
+        distance_b_mm: 0.0,
+        gap_mm: f64::INFINITY,
+    };
+    for (k, a) in pairs.iter().enumerate() {
+        for b in &pairs[k + 1..] {
+            let gap = (a.1 - b.1).abs();
+            if gap < closest.gap_mm {
+                closest = ClosestDistances {
+                    pair_a: a.0,
+                    distance_a_mm: a.1,
+                    pair_b: b.0,
+                    distance_b_mm: b.1,
+                    gap_mm: gap,
+                };
+            }
+        }
+    }
+    let n = m.len() as f64;
+    let centroid = m.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
+    let mut scatter = Matrix3::zeros();
+    for p in m {
+        let r = p.coords - centroid;
+        scatter += r * r.transpose();
+    }
+    let eigen = scatter.symmetric_eigen();
+    let tip = tool.tip_in_tool().coords - centroid;
+    let total: f64 = m.iter().map(|p| (p.coords - centroid).norm_squared()).sum();
+    let mut sum = 0.0;
+    for k in 0..3 {
+        let axis = eigen.eigenvectors.column(k);
+        // d_k: distance of the tip from principal axis k; f_k: RMS distance of the markers from it.
+        let d_sq = tip.norm_squared() - tip.dot(&axis).powi(2);
+        let f_sq = (total - eigen.eigenvalues[k]) / n;
+        if f_sq > 0.0 {
+            sum += d_sq / f_sq;
+        }
+    }
+    let factor = ((1.0 + sum / 3.0) / n).sqrt();
+    let gap_over_tolerance = closest.gap_mm / distance_tolerance_mm;
+    let marker_spread_mm = (total / n).sqrt();
+    let tip_distance_mm = tip.norm();
+    let mut warnings = Vec::new();
+    if gap_over_tolerance < 2.0 {
+        warnings.push(format!("distances {:?} and {:?} differ by {:.2} mm, under twice the {distance_tolerance_mm} mm tolerance: the tool will be refused", closest.pair_a, closest.pair_b, closest.gap_mm));
+    } else if gap_over_tolerance < 4.0 {
+        warnings.push(format!("distances {:?} and {:?} differ by only {:.2} mm: identification is marginal under noise", closest.pair_a, closest.pair_b, closest.gap_mm));
+    }
+    if tip_distance_mm > 2.0 * marker_spread_mm {
+        warnings.push(format!("the tip is {tip_distance_mm:.0} mm from the markers' centre, {:.1}x their spread: rotation noise is amplified at the tip", tip_distance_mm / marker_spread_mm));
+    }
+    ToolDesign {
+        closest_distances: closest,
+        gap_over_tolerance,
+        tip_error_per_marker_error: factor,
+        marker_spread_mm,
+        tip_distance_mm,
+        warnings,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::sim::{Scenario, build_scene};
+
+    #[test]
+    fn tool_design_matches_closed_forms() {
+        // Four markers on a square of side 2a around the origin, tip on the normal axis at h:
+        // f² = a² for the two in-plane axes, 2a² for the normal; d² = h² for the in-plane axes,
+        // 0 for the normal: factor² = (1 + (h²/a² + h²/a²)/3) / 4.
+        let (a, h) = (40.0, 150.0);
+        let markers = vec![
+            Point3::new(a, a, 0.0),
+            Point3::new(-a, a, 0.0),
+            Point3::new(-a, -a, 0.0),
+            Point3::new(a, -a, 0.0),
+        ];
+        let tcp = crate::geometry::pose_from_parts(
+            Vector3::new(0.0, 0.0, h),
+            nalgebra::UnitQuaternion::identity(),
+        );
+        let tool = Tool::new("square".into(), 10.0, markers, tcp).unwrap();
+        let design = tool_design(&tool, 0.3);
+        let expected = ((1.0 + 2.0 * h * h / (a * a) / 3.0) / 4.0_f64).sqrt();
+        assert!((design.tip_error_per_marker_error - expected).abs() < 1e-12);
+        // A square has equal sides: the identification gap is zero and the tool is flagged.
+        assert_eq!(design.closest_distances.gap_mm, 0.0);
+        assert!(design.warnings[0].contains("refused"));
+    }
+
+    #[test]
+    fn map_cells_outside_the_views_are_gaps() {
+        let scene = build_scene(Scenario::Paper, 1);
+        let rotation = scene.truth.samples[0]
+            .pose
+            .map(|p| p.world_from_tool.rotation)
+            .unwrap_or_default();
+        let cells = uncertainty_map(
+            &scene.rig,
+            &scene.tool,
+            &rotation,
+            &[Point3::new(0.0, 0.0, 180.0), Point3::new(0.0, 0.0, 5000.0)],
+            0.15,
+        );
+        assert!(cells[0].tip_rms_mm.is_some_and(|v| v > 0.0 && v < 1.0));
+        assert!(
+            cells[0]
+                .tip_rms_one_camera_dropped_mm
+                .is_some_and(|v| v > cells[0].tip_rms_mm.unwrap_or(0.0))
+        );
+        assert!(cells[1].tip_rms_mm.is_none());
+    }
 
     #[test]
     fn bad_inputs_are_refused() {
