@@ -100,19 +100,6 @@ struct Moments {
 }
 
 impl Moments {
-    #[inline]
-    fn add(&mut self, x: f64, y: f64, w: f64) {
-        self.count += 1.0;
-        self.w += w;
-        self.wx += w * x;
-        self.wy += w * y;
-        self.x += x;
-        self.y += y;
-        self.xx += x * x;
-        self.yy += y * y;
-        self.xy += x * y;
-    }
-
     /// Adds a row segment of `n` pixels starting at column `x0` of row `y`, whose weights sum
     /// to `w` and whose weights times their offset from `x0` sum to `wx`: the sums of the
     /// coordinates over the segment are arithmetic series.
@@ -215,12 +202,26 @@ pub fn measure<P: Intensity>(
         let y = run.y as usize;
         let row = image.row(y);
         let dy = f64::from(run.y) - origin_y;
-        for x in run.x_start..=run.x_end {
-            let v = row[x as usize].level();
+        let (mut sum, mut sum_k) = (0u64, 0u64);
+        for (k, v) in row[run.x_start as usize..=run.x_end as usize]
+            .iter()
+            .enumerate()
+        {
+            let v = v.level();
             peak = peak.max(v);
-            total += f64::from(v);
-            own.add(f64::from(x) - origin_x, dy, f64::from(v) - b);
+            sum += u64::from(v);
+            sum_k += k as u64 * u64::from(v);
         }
+        // Weights `v − b`: Σ (v − b) = Σ v − n b and Σ k (v − b) = Σ k v − b n (n − 1) / 2.
+        let n = run.len() as f64;
+        total += sum as f64;
+        own.add_row(
+            f64::from(run.x_start) - origin_x,
+            n,
+            dy,
+            sum as f64 - n * b,
+            sum_k as f64 - b * 0.5 * n * (n - 1.0),
+        );
         endpoints.push(Pixel::new(f64::from(run.x_start), f64::from(run.y)));
         if run.x_end != run.x_start {
             endpoints.push(Pixel::new(f64::from(run.x_end), f64::from(run.y)));
