@@ -77,6 +77,10 @@ pub struct DetectOptions {
     /// Farthest distance from a camera to a marker, millimetres (with --rig).
     #[arg(long, default_value_t = 3000.0)]
     pub far: f64,
+    /// Shot noise of the camera: noise variance per image unit of signal (1 / gain in
+    /// electrons per unit). Only the predicted centre noise (`center_std_px`) uses it.
+    #[arg(long, default_value_t = 0.0)]
+    pub shot_noise: f64,
 }
 
 /// The blobs of one frame of one camera.
@@ -108,6 +112,13 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
             "--near and --far must satisfy 0 < near < far, got {} and {}",
             args.near,
             args.far
+        ))
+        .rejected();
+    }
+    if !(args.shot_noise.is_finite() && args.shot_noise >= 0.0) {
+        return Err(anyhow::anyhow!(
+            "--shot-noise must be a non-negative number, got {}",
+            args.shot_noise
         ))
         .rejected();
     }
@@ -151,6 +162,7 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
             };
             cfg.method = args.method;
             cfg.min_roundness = args.min_roundness;
+            cfg.shot_noise_per_level = args.shot_noise;
             if let Some(t) = args.threshold {
                 cfg.threshold = Threshold::Fixed(t);
             }
