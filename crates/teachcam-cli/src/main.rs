@@ -30,12 +30,18 @@ enum Command {
     Detect(cmd::detect::Args),
     /// Repeatability of blob centres of static markers (the paper's Fig. 10).
     Repeatability(cmd::repeatability::Args),
+    /// Track the tool through a recording: detect, correspond, triangulate, identify, register.
+    Track(cmd::track::Args),
     /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
     Uncertainty(cmd::uncertainty::Args),
     /// First-order tip uncertainty over a grid of the working volume.
     UncertaintyMap(cmd::uncertainty_map::Args),
     /// Check a tool's marker layout: identification margin and expected tip error.
     ToolCheck(cmd::tool_check::Args),
+    /// Inspect C3D motion-capture files (`teachcam c3d info FILE.c3d`).
+    C3d(cmd::c3d::Args),
+    /// Another tracker's markers (C3D, Motive CSV, Qualisys TSV) to a tool trajectory.
+    Import(cmd::import::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -70,9 +76,12 @@ fn main() -> ExitCode {
         Command::Simulate(args) => cmd::simulate::run(&args),
         Command::Detect(args) => cmd::detect::run(&args),
         Command::Repeatability(args) => cmd::repeatability::run(&args),
+        Command::Track(args) => cmd::track::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
+        Command::C3d(args) => cmd::c3d::run(&args),
+        Command::Import(args) => cmd::import::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

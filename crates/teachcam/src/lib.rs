@@ -31,6 +31,8 @@
 //! - [`track`]: the stages above per frame, frames in parallel.
 //! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
 //! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
+//! - [`c3d`]: C3D motion-capture files in and out.
+//! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
 
 pub mod geometry;
 pub mod camera;
@@ -45,3 +47,5 @@ pub mod register;
 pub mod track;
 pub mod metrology;
 pub mod sim;
+pub mod c3d;
+pub mod vendor;
