@@ -280,7 +280,8 @@ pub struct Blob {
     pub roundness: f64,
     /// Predicted per-axis standard deviation of the centre, pixels: the background noise
     /// (estimated from the image) and [`DetectConfig::shot_noise_per_level`] propagated
-    /// through the centroid (0 on a noise-free image).
+    /// through the centroid (0 on a noise-free image). For `SmallestCircle`, the `Centroid`
+    /// prediction: the circle has no noise model, and scatters about ten times more.
     pub center_std_px: f64,
     /// Smallest box holding the blob's pixels.
     pub bounding_box: PixelBox,
