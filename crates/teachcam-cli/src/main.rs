@@ -26,9 +26,8 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Write a simulated recording with its ground truth.
     Simulate(cmd::simulate::Args),
-    /// Find marker blobs with sub-pixel centres in every frame of a recording.
+    // No doc comments here: the `Args` structs' own doc comments are the help text.
     Detect(cmd::detect::Args),
-    /// Repeatability of blob centres of static markers (the paper's Fig. 10).
     Repeatability(cmd::repeatability::Args),
     /// Track the tool through a recording: detect, correspond, triangulate, identify, register.
     Track(cmd::track::Args),

@@ -17,8 +17,9 @@ use crate::progress::Progress;
 ///
 /// Each frame is thresholded (automatically from its background and noise unless
 /// `--threshold` is given), its 8-connected bright regions are measured, and the regions that
-/// are too small, too large, not round (two touching markers) or cut by the image border are
-/// left out. Frames run in parallel.
+/// are too small, too large or cut by the image border are left out. A region that is not
+/// round (markers whose images merged) is split when its markers come apart at half contrast
+/// with 2 px between their edges, and left out otherwise. Frames run in parallel.
 ///
 /// Output columns: `camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak`
 /// (camera = the sub-folder's name, frame = 0-based index, centre in OpenCV pixels, radius of

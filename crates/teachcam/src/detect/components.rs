@@ -1,6 +1,6 @@
 //! Connected components of the pixels above a threshold, in one pass, as runs.
 //!
-//! Each row is scanned once; a stretch of [`CHUNK`] pixels whose maximum is at or below the
+//! Each row is scanned once; a stretch of `CHUNK` (128) pixels whose maximum is at or below the
 //! threshold is skipped whole (the compiler turns that maximum into SIMD), so a dark frame
 //! costs about one memory read. The runs of foreground pixels are joined to the runs of the
 //! row above that touch them, 8-connected (a run `[a, b]` touches `[c, d]` when

@@ -353,7 +353,7 @@ const SPLIT_LEVEL: f64 = 0.5;
 const SPLIT_MIN_MARGIN_PX: f64 = 1.0;
 
 /// The markers of a region that holds several (images that nearly touch and merged at the
-/// detection threshold): the region's own pixels are labelled again at [`SPLIT_LEVEL`], and
+/// detection threshold): the region's own pixels are labelled again at `SPLIT_LEVEL` (half its contrast), and
 /// each part is measured with a `Refined` disc that stops halfway between its edge and the
 /// nearest other part's, so that no part's disc holds another's edge. Parts closer than
 /// `2 × SPLIT_MIN_MARGIN_PX` to another, and parts that fail the size or roundness limits,
