@@ -179,16 +179,23 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
 }
 
 /// Detects the blobs of every frame of every camera, frames in parallel, in camera then frame
-/// order; `on_frame` is called after each frame.
+/// order; `configs[i]` is the configuration of `recording.cameras[i]`. `on_frame` is called
+/// after each frame.
 ///
 /// # Errors
 /// Rejected data naming the camera, frame and file of the first frame that cannot be read or
-/// searched.
+/// searched; an internal error when `configs` does not have one entry per camera.
 pub fn detect_recording(
     recording: &Recording,
     configs: &[DetectConfig],
     on_frame: &(dyn Fn() + Sync),
 ) -> anyhow::Result<Vec<FrameBlobs>> {
+    anyhow::ensure!(
+        configs.len() == recording.cameras.len(),
+        "internal: {} detector configurations for {} cameras",
+        configs.len(),
+        recording.cameras.len()
+    );
     let jobs: Vec<(usize, usize)> = recording
         .cameras
         .iter()

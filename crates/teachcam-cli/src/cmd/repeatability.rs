@@ -19,7 +19,7 @@ use crate::progress::Progress;
 /// its smallest-circle centre.
 ///
 /// Output columns: `camera,x_px,y_px,area_px,frames,std_x_px,std_y_px,std_px,predicted_std_px`
-/// (`std_px` per axis, `predicted_std_px` from the background noise). `--plot` draws `std_px`
+/// (`std_px` per axis, `predicted_std_px` from the background noise and `--shot-noise`). `--plot` draws `std_px`
 /// against `area_px` as SVG.
 ///
 /// Example: `teachcam repeatability rec -o repeatability.csv --plot repeatability.svg --method smallest-circle`
