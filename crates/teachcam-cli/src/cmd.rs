@@ -2,14 +2,15 @@
 
 pub mod align;
 pub mod c3d;
-pub mod check;
 pub mod calibrate;
+pub mod check;
 pub mod demo;
 pub mod detect;
 pub mod export;
 pub mod import;
 pub mod pivot;
 pub mod repeatability;
+pub mod report;
 pub mod simulate;
 pub mod smooth;
 pub mod smoothing_study;
