@@ -5,17 +5,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 fn shared_c3d() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/c3d");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "CI is set but the test data folder {} is missing",
-        dir.display()
-    );
-    println!("skipped: test data folder {} is missing", dir.display());
-    None
+    teachcam_testdata::shared_data("c3d")
 }
 
 fn reference(stem: &str) -> serde_json::Value {

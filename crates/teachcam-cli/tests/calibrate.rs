@@ -10,17 +10,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 fn stereo_data() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/calib");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "test data folder {} is missing (CI is set, so this is a failure)",
-        dir.display()
-    );
-    eprintln!("skipped: test data folder {} is missing", dir.display());
-    None
+    teachcam_testdata::shared_data("calib")
 }
 
 fn teachcam() -> Command {

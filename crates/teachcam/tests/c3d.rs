@@ -9,19 +9,8 @@ use teachcam::c3d::{self, PointData};
 use teachcam::geometry::FrameIndex;
 
 /// The shared data folder, or `None` (test skipped) when it is absent outside CI.
-#[expect(clippy::print_stderr, reason = "a skipped test says why")]
 fn data_dir() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/c3d");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "CI is set but the test data folder {} is missing",
-        dir.display()
-    );
-    eprintln!("skipped: test data folder {} is missing", dir.display());
-    None
+    teachcam_testdata::shared_data("c3d")
 }
 
 /// The fourth word of a point, decoded by the reference script from the raw bytes.

@@ -18,17 +18,7 @@ use teachcam::geometry::{CameraId, Pixel, Point3, Pose};
 
 /// `../shared/data/calib`, or `None` (test skipped) when absent outside CI.
 fn calib_data() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/calib");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "test data folder {} is missing (CI is set, so this is a failure)",
-        dir.display()
-    );
-    eprintln!("skipped: test data folder {} is missing", dir.display());
-    None
+    teachcam_testdata::shared_data("calib")
 }
 
 fn reference() -> Value {

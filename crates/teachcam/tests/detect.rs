@@ -428,20 +428,7 @@ proptest::proptest! {
 
 /// `shared/data`, or `None` (test skipped) when it is missing outside CI.
 fn shared_data() -> Option<std::path::PathBuf> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "test data folder {} is missing (CI is set, so this fails)",
-        dir.display()
-    );
-    #[expect(clippy::print_stderr, reason = "says why the test is skipped")]
-    {
-        eprintln!("skipped: test data folder {} is missing", dir.display());
-    }
-    None
+    teachcam_testdata::shared_data("")
 }
 
 #[derive(serde::Deserialize)]
