@@ -25,6 +25,10 @@ use crate::geometry::Pixel;
 
 use super::Chessboard;
 
+mod subpix;
+
+use subpix::refine_grid;
+
 /// Options of [`find_chessboard_corners`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct CornerConfig {
@@ -274,31 +278,44 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     let r = RING_RADIUS as usize;
     let mut response = vec![0.0f32; w * h];
     let mut max_response = 0.0f32;
-    // Row slices per ring sample, so the inner loop indexes plain slices by x - r.
+    // Row by row, each term over the whole row at once (loops the compiler vectorises): ring
+    // sample k of pixel x is rows[k][x - r].
+    let n = w - 2 * r;
     let rows_of = |ring: &[(i32, i32); 16], y: usize| -> [&[f32]; 16] {
         std::array::from_fn(|k| {
             let (dx, dy) = ring[k];
             let start =
                 (y as i64 + i64::from(dy)) as usize * w + (r as i64 + i64::from(dx)) as usize;
-            &plane.data[start..]
+            &plane.data[start..start + n]
         })
     };
+    let mut local_mean = vec![0.0f32; n];
+    let mut best = vec![0.0f32; n];
+    let mut value = vec![0.0f32; n];
     for y in r..h - r {
-        let big = rows_of(&RING, y);
-        let small = rows_of(&SMALL_RING, y);
-        let above = &plane.data[(y - 1) * w..y * w];
-        let here = &plane.data[y * w..(y + 1) * w];
-        let below = &plane.data[(y + 1) * w..(y + 2) * w];
-        for x in r..w - r {
-            let local_mean = (here[x] + here[x - 1] + here[x + 1] + above[x] + below[x]) / 5.0;
-            // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
-            let ring_big: [f32; 16] = std::array::from_fn(|k| big[k][x - r]);
-            let ring_small: [f32; 16] = std::array::from_fn(|k| small[k][x - r]);
-            let value =
-                chess_response(&ring_big, local_mean).max(chess_response(&ring_small, local_mean));
-            if value > 0.0 {
-                response[y * w + x] = value;
-                max_response = max_response.max(value);
+        let above = &plane.data[(y - 1) * w + r..(y - 1) * w + r + n];
+        let here = &plane.data[y * w + r - 1..y * w + r + n + 1];
+        let below = &plane.data[(y + 1) * w + r..(y + 1) * w + r + n];
+        for x in 0..n {
+            local_mean[x] = (here[x + 1] + here[x] + here[x + 2] + above[x] + below[x]) / 5.0;
+        }
+        // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
+        for (ring, first) in [(&RING, true), (&SMALL_RING, false)] {
+            let a = rows_of(ring, y);
+            chess_row(&a, &local_mean, &mut value);
+            if first {
+                best.copy_from_slice(&value);
+            } else {
+                for (b, v) in best.iter_mut().zip(&value) {
+                    *b = b.max(*v);
+                }
+            }
+        }
+        let out = &mut response[y * w + r..y * w + r + n];
+        for (o, v) in out.iter_mut().zip(&best) {
+            if *v > 0.0 {
+                *o = *v;
+                max_response = max_response.max(*v);
             }
         }
     }
@@ -349,19 +366,34 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     candidates
 }
 
-/// ChESS response of a 16-sample ring around a pixel whose 5-pixel cross averages
-/// `local_mean`.
-fn chess_response(ring: &[f32; 16], local_mean: f32) -> f32 {
-    let mut sum_response = 0.0;
-    for n in 0..4 {
-        sum_response += (ring[n] + ring[n + 8] - ring[n + 4] - ring[n + 12]).abs();
+/// ChESS responses of one row: `out[x]` for the ring whose sample `k` is `ring[k][x]`, around
+/// pixels whose 5-pixel cross averages `local_mean[x]`:
+/// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}| - 16 |mean(a) - local|`.
+fn chess_row(ring: &[&[f32]; 16], local_mean: &[f32], out: &mut [f32]) {
+    let len = out.len();
+    let mut ring_sum = vec![0.0f32; len];
+    out.fill(0.0);
+    for k in 0..4 {
+        let (a, b, c, d) = (
+            &ring[k][..len],
+            &ring[k + 8][..len],
+            &ring[k + 4][..len],
+            &ring[k + 12][..len],
+        );
+        for x in 0..len {
+            out[x] += (a[x] + b[x] - c[x] - d[x]).abs();
+        }
     }
-    let mut diff_response = 0.0;
-    for n in 0..8 {
-        diff_response += (ring[n] - ring[n + 8]).abs();
+    for k in 0..8 {
+        let (a, b) = (&ring[k][..len], &ring[k + 8][..len]);
+        for x in 0..len {
+            out[x] -= (a[x] - b[x]).abs();
+            ring_sum[x] += a[x] + b[x];
+        }
     }
-    let ring_mean = ring.iter().sum::<f32>() / 16.0;
-    sum_response - diff_response - 16.0 * (ring_mean - local_mean).abs()
+    for x in 0..len {
+        out[x] -= 16.0 * (ring_sum[x] / 16.0 - local_mean[x]).abs();
+    }
 }
 
 fn distance2(a: &Candidate, bx: f64, by: f64) -> f64 {
@@ -631,134 +663,4 @@ fn opencv_order(mut grid: Vec<Vec<Pixel>>, plane: &Plane) -> Vec<Pixel> {
         }
     }
     grid.into_iter().flatten().collect()
-}
-
-/// Sub-pixel corners: first with a window a quarter of the local square (so that no other
-/// corner falls inside it, as OpenCV refines inside `findChessboardCorners`), then with the
-/// configured window.
-fn refine_grid(plane: &Plane, grid: &[Pixel], cols: usize, config: &CornerConfig) -> Vec<Pixel> {
-    grid.iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let (r, c) = (k / cols, k % cols);
-            let rows = grid.len() / cols;
-            let mut square = f64::INFINITY;
-            for (rr, cc) in [
-                (r.wrapping_sub(1), c),
-                (r + 1, c),
-                (r, c.wrapping_sub(1)),
-                (r, c + 1),
-            ] {
-                if rr < rows && cc < cols {
-                    square = square.min(p.distance(&grid[rr * cols + cc]));
-                }
-            }
-            let coarse_half =
-                ((square / 4.0).round() as usize).clamp(2, config.subpix_half_window_px);
-            let coarse = corner_subpix(plane, *p, coarse_half, config);
-            corner_subpix(plane, coarse, config.subpix_half_window_px, config)
-        })
-        .collect()
-}
-
-/// OpenCV's `cornerSubPix` with no dead zone: iterate
-/// `q ← (Σ w g gᵀ)⁻¹ Σ w g gᵀ p` over a `(2h+1)²` window resampled around `q`.
-fn corner_subpix(
-    plane: &Plane,
-    start: Pixel,
-    half_window_px: usize,
-    config: &CornerConfig,
-) -> Pixel {
-    let half = half_window_px as i32;
-    let side = (2 * half + 1) as usize;
-    let buffer_side = side + 2;
-    let mut mask = vec![0.0f64; side * side];
-    for i in 0..side {
-        let y = f64::from(i as i32 - half) / f64::from(half.max(1));
-        for j in 0..side {
-            let x = f64::from(j as i32 - half) / f64::from(half.max(1));
-            mask[i * side + j] = (-y * y).exp() * (-x * x).exp();
-        }
-    }
-    let eps2 = config.subpix_epsilon_px * config.subpix_epsilon_px;
-    let mut buffer = vec![0.0f64; buffer_side * buffer_side];
-    let mut q = start;
-    for _ in 0..config.subpix_max_iterations {
-        // buffer[(i, j)] samples q + (j - half - 1, i - half - 1): one fractional offset for
-        // the whole patch, so the bilinear weights are shared when it lies inside the image.
-        let x0 = q.x - f64::from(half + 1);
-        let y0 = q.y - f64::from(half + 1);
-        let (bx, by) = (x0.floor(), y0.floor());
-        let inside = bx >= 0.0
-            && by >= 0.0
-            && bx + (buffer_side as f64) < plane.width as f64
-            && by + (buffer_side as f64) < plane.height as f64;
-        if inside {
-            let (ax, ay) = (x0 - bx, y0 - by);
-            let (w00, w01, w10, w11) = (
-                (1.0 - ax) * (1.0 - ay),
-                ax * (1.0 - ay),
-                (1.0 - ax) * ay,
-                ax * ay,
-            );
-            let (bx, by) = (bx as usize, by as usize);
-            for i in 0..buffer_side {
-                let top = &plane.data[(by + i) * plane.width + bx..];
-                let bottom = &plane.data[(by + i + 1) * plane.width + bx..];
-                for j in 0..buffer_side {
-                    buffer[i * buffer_side + j] = w00 * f64::from(top[j])
-                        + w01 * f64::from(top[j + 1])
-                        + w10 * f64::from(bottom[j])
-                        + w11 * f64::from(bottom[j + 1]);
-                }
-            }
-        } else {
-            for i in 0..buffer_side {
-                for j in 0..buffer_side {
-                    buffer[i * buffer_side + j] = plane.bilinear(x0 + j as f64, y0 + i as f64);
-                }
-            }
-        }
-        let (mut a, mut b, mut c, mut bb1, mut bb2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for i in 0..side {
-            let py = f64::from(i as i32 - half);
-            for j in 0..side {
-                let px = f64::from(j as i32 - half);
-                let m = mask[i * side + j];
-                let at = (i + 1) * buffer_side + j + 1;
-                let gx = buffer[at + 1] - buffer[at - 1];
-                let gy = buffer[at + buffer_side] - buffer[at - buffer_side];
-                let (gxx, gxy, gyy) = (gx * gx * m, gx * gy * m, gy * gy * m);
-                a += gxx;
-                b += gxy;
-                c += gyy;
-                bb1 += gxx * px + gxy * py;
-                bb2 += gxy * px + gyy * py;
-            }
-        }
-        let det = a * c - b * b;
-        if det.abs() <= f64::EPSILON * f64::EPSILON {
-            break;
-        }
-        let next = Pixel::new(
-            q.x + (c * bb1 - b * bb2) / det,
-            q.y + (-b * bb1 + a * bb2) / det,
-        );
-        let moved2 = (next.x - q.x).powi(2) + (next.y - q.y).powi(2);
-        q = next;
-        if q.x < 0.0
-            || q.y < 0.0
-            || q.x >= plane.width as f64
-            || q.y >= plane.height as f64
-            || moved2 <= eps2
-        {
-            break;
-        }
-    }
-    // As OpenCV: a corner that wandered out of its window did not converge; keep the start.
-    if (q.x - start.x).abs() > f64::from(half) || (q.y - start.y).abs() > f64::from(half) {
-        start
-    } else {
-        q
-    }
 }
