@@ -251,17 +251,30 @@ pub fn find_chessboard_corners(
     }
     let (cols, rows) = (board.inner_cols, board.inner_rows);
     let mut largest = 0;
-    // Seeds in order of response: a real board's corners are the strongest saddles.
-    for seed in 0..candidates.len().min(64) {
-        let Some(lattice) = grow_lattice(&candidates, seed, 3 * cols * rows, config) else {
-            continue;
-        };
-        largest = largest.max(lattice.len());
-        if lattice.len() < cols * rows {
-            continue;
-        }
-        if let Some(grid) = board_window(&lattice, &candidates, &smooth, cols, rows) {
-            return Ok(refine_grid(&raw, &grid, cols, config));
+    // First complete lattices only; then a lattice missing one corner (a finger over it, a
+    // glint), that corner inferred from its neighbours and kept only if a saddle is there.
+    for max_missing in [0, 1] {
+        // Seeds in order of response: a real board's corners are the strongest saddles.
+        for seed in 0..candidates.len().min(64) {
+            let Some(lattice) = grow_lattice(&candidates, seed, 3 * cols * rows, config) else {
+                continue;
+            };
+            largest = largest.max(lattice.len());
+            if lattice.len() + max_missing < cols * rows {
+                continue;
+            }
+            let Some((grid, inferred)) =
+                board_window(&lattice, &candidates, &smooth, cols, rows, max_missing)
+            else {
+                continue;
+            };
+            let refined = refine_grid(&raw, &grid, cols, config);
+            if inferred
+                .iter()
+                .all(|&k| confirms_inferred(&smooth, &grid, &refined, cols, k))
+            {
+                return Ok(refined);
+            }
         }
     }
     Err(ChessboardError::NotFound {
@@ -511,44 +524,46 @@ fn grow_lattice(
     Some(lattice)
 }
 
-/// The board inside a grown lattice: a fully populated `cols x rows` window (either way
-/// round) whose squares alternate in brightness, ordered as OpenCV orders it.
+/// The board inside a grown lattice: a `cols x rows` window (either way round) with at most
+/// `max_missing` corners absent (predicted from their neighbours), whose squares alternate in
+/// brightness, ordered as OpenCV orders it; with the indices of the predicted corners.
 fn board_window(
     lattice: &Lattice,
     candidates: &[Candidate],
     plane: &Plane,
     cols: usize,
     rows: usize,
-) -> Option<Vec<Pixel>> {
+    max_missing: usize,
+) -> Option<(Vec<Pixel>, Vec<usize>)> {
     let i_min = lattice.keys().map(|k| k.0).min()?;
     let i_max = lattice.keys().map(|k| k.0).max()?;
     let j_min = lattice.keys().map(|k| k.1).min()?;
     let j_max = lattice.keys().map(|k| k.1).max()?;
-    let mut found: Option<Vec<Vec<Pixel>>> = None;
+    let mut found: Option<(Vec<Vec<Pixel>>, Vec<Pixel>)> = None;
     for (span_i, span_j) in [(cols, rows), (rows, cols)] {
         let (span_i, span_j) = (span_i as i32, span_j as i32);
         for i0 in i_min..=i_max - span_i + 1 {
             for j0 in j_min..=j_max - span_j + 1 {
                 // grid[b][a]: a along i, b along j.
-                let mut grid = Vec::with_capacity(span_j as usize);
-                let mut complete = true;
-                for b in 0..span_j {
-                    let mut row = Vec::with_capacity(span_i as usize);
-                    for a in 0..span_i {
-                        match lattice.get(&(i0 + a, j0 + b)) {
-                            Some(&c) => row.push(Pixel::new(candidates[c].x, candidates[c].y)),
-                            None => {
-                                complete = false;
-                                break;
-                            }
-                        }
-                    }
-                    if !complete {
-                        break;
-                    }
-                    grid.push(row);
+                let sparse: Vec<Vec<Option<Pixel>>> = (0..span_j)
+                    .map(|b| {
+                        (0..span_i)
+                            .map(|a| {
+                                lattice
+                                    .get(&(i0 + a, j0 + b))
+                                    .map(|&c| Pixel::new(candidates[c].x, candidates[c].y))
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let missing = sparse.iter().flatten().filter(|p| p.is_none()).count();
+                if missing > max_missing {
+                    continue;
                 }
-                if !complete || !alternates(&grid, plane) {
+                let Some((grid, predicted)) = fill_missing(&sparse) else {
+                    continue;
+                };
+                if !alternates(&grid, plane) {
                     continue;
                 }
                 let grid = if span_i as usize == cols {
@@ -560,14 +575,106 @@ fn board_window(
                     // Two boards or a lattice of clutter: refuse rather than guess.
                     return None;
                 }
-                found = Some(grid);
+                found = Some((grid, predicted));
             }
         }
         if cols == rows {
             break;
         }
     }
-    found.map(|grid| opencv_order(grid, plane))
+    let (grid, predicted) = found?;
+    let ordered = opencv_order(grid, plane);
+    let inferred = ordered
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| predicted.contains(p))
+        .map(|(k, _)| k)
+        .collect();
+    Some((ordered, inferred))
+}
+
+/// Fills absent corners by linear prediction from two neighbours on a line (the midpoint of
+/// a pair around it, or the extrapolation of two on one side); `None` when one cannot be.
+fn fill_missing(sparse: &[Vec<Option<Pixel>>]) -> Option<(Vec<Vec<Pixel>>, Vec<Pixel>)> {
+    let rows = sparse.len() as i64;
+    let cols = sparse.first().map_or(0, Vec::len) as i64;
+    let at = |r: i64, c: i64| -> Option<Pixel> {
+        if (0..rows).contains(&r) && (0..cols).contains(&c) {
+            sparse[r as usize][c as usize]
+        } else {
+            None
+        }
+    };
+    let mut predicted = Vec::new();
+    let mut grid = Vec::with_capacity(sparse.len());
+    for r in 0..rows {
+        let mut row = Vec::with_capacity(cols as usize);
+        for c in 0..cols {
+            if let Some(p) = at(r, c) {
+                row.push(p);
+                continue;
+            }
+            let mut guess = None;
+            for (dr, dc) in [(0, 1), (1, 0)] {
+                if let (Some(a), Some(b)) = (at(r - dr, c - dc), at(r + dr, c + dc)) {
+                    guess = Some(Pixel::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y)));
+                    break;
+                }
+            }
+            if guess.is_none() {
+                for (dr, dc) in [(0, 1), (0, -1), (1, 0), (-1, 0)] {
+                    if let (Some(a), Some(b)) = (at(r + dr, c + dc), at(r + 2 * dr, c + 2 * dc)) {
+                        guess = Some(Pixel::new(2.0 * a.x - b.x, 2.0 * a.y - b.y));
+                        break;
+                    }
+                }
+            }
+            let guess = guess?;
+            predicted.push(guess);
+            row.push(guess);
+        }
+        grid.push(row);
+    }
+    Some((grid, predicted))
+}
+
+/// An inferred corner stands when refinement moved it less than a quarter of a square from
+/// its prediction and settled on a corner as well defined as its neighbours: a structure
+/// tensor with two strong directions (`λmin / λmax ≥ 0.2`), and `λmin` at least a fifth of
+/// the neighbours' median (not a flat patch, not an edge). A ChESS test would refuse a corner
+/// with a finger over one quadrant; the gradients of the other three still pin it.
+fn confirms_inferred(
+    plane: &Plane,
+    predicted: &[Pixel],
+    refined: &[Pixel],
+    cols: usize,
+    k: usize,
+) -> bool {
+    let (r, c) = (k / cols, k % cols);
+    let rows = refined.len() / cols;
+    let neighbour = if c + 1 < cols { k + 1 } else { k - 1 };
+    let square = predicted[k].distance(&predicted[neighbour]);
+    let settled = refined[k];
+    if !(settled.is_finite() && predicted[k].distance(&settled) <= 0.25 * square) {
+        return false;
+    }
+    let half = ((square / 4.0).round() as usize).max(2);
+    let (lo, hi) = subpix::structure_eigenvalues(plane, settled, half);
+    let mut others: Vec<f64> = [
+        (r.wrapping_sub(1), c),
+        (r + 1, c),
+        (r, c.wrapping_sub(1)),
+        (r, c + 1),
+    ]
+    .iter()
+    .filter(|(rr, cc)| *rr < rows && *cc < cols)
+    .map(|(rr, cc)| subpix::structure_eigenvalues(plane, refined[rr * cols + cc], half).0)
+    .collect();
+    others.sort_by(f64::total_cmp);
+    let Some(&median) = others.get(others.len() / 2) else {
+        return false;
+    };
+    hi > 0.0 && lo >= 0.2 * hi && lo >= 0.2 * median
 }
 
 fn transpose(grid: &[Vec<Pixel>]) -> Vec<Vec<Pixel>> {

@@ -141,3 +141,24 @@ fn corner_subpix(
         q
     }
 }
+
+/// The gradient structure tensor `Σ g gᵀ` over a `(2 half + 1)²` window around `p`, as its
+/// eigenvalues `(λmin, λmax)`: a corner has two strong gradient directions (both large), an
+/// edge one (λmin ≈ 0), a flat patch none.
+pub(super) fn structure_eigenvalues(plane: &Plane, p: Pixel, half: usize) -> (f64, f64) {
+    let half = half as i64;
+    let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+    for dy in -half..=half {
+        for dx in -half..=half {
+            let (x, y) = (p.x + dx as f64, p.y + dy as f64);
+            let gx = plane.bilinear(x + 1.0, y) - plane.bilinear(x - 1.0, y);
+            let gy = plane.bilinear(x, y + 1.0) - plane.bilinear(x, y - 1.0);
+            a += gx * gx;
+            b += gx * gy;
+            c += gy * gy;
+        }
+    }
+    let mean = 0.5 * (a + c);
+    let spread = (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    (mean - spread, mean + spread)
+}
