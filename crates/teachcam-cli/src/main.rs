@@ -22,18 +22,21 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Simulate the paper's setup and run the whole pipeline on it.
     Demo(cmd::demo::Args),
-    /// Write a simulated recording with its ground truth.
     Simulate(cmd::simulate::Args),
-    /// Calibrate a camera or a whole rig from chessboard photographs.
+    Detect(cmd::detect::Args),
+    Repeatability(cmd::repeatability::Args),
+    Track(cmd::track::Args),
     Calibrate(cmd::calibrate::Args),
-    /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
     Uncertainty(cmd::uncertainty::Args),
-    /// First-order tip uncertainty over a grid of the working volume.
     UncertaintyMap(cmd::uncertainty_map::Args),
-    /// Check a tool's marker layout: identification margin and expected tip error.
     ToolCheck(cmd::tool_check::Args),
+    C3d(cmd::c3d::Args),
+    Import(cmd::import::Args),
+    Check(cmd::check::Args),
+    Export(cmd::export::Args),
+    Align(cmd::align::Args),
+    Pivot(cmd::pivot::Args),
 }
 
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
@@ -66,10 +69,19 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
+        Command::Detect(args) => cmd::detect::run(&args),
+        Command::Repeatability(args) => cmd::repeatability::run(&args),
+        Command::Track(args) => cmd::track::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
+        Command::C3d(args) => cmd::c3d::run(&args),
+        Command::Import(args) => cmd::import::run(&args),
+        Command::Check(args) => cmd::check::run(&args),
+        Command::Export(args) => cmd::export::run(&args),
+        Command::Align(args) => cmd::align::run(&args),
+        Command::Pivot(args) => cmd::pivot::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -27,8 +27,10 @@
 //! 4. *Filters.* Area limits (derivable from the marker diameter, a camera and a range of
 //!    working distances, [`DetectConfig::for_marker`]) and a roundness floor: two markers whose
 //!    images touch form a blob that is long (moment axis ratio) and fills its enclosing circle
-//!    badly, so it is rejected rather than given one wrong centre. A blob touching the image
-//!    border is cut off, so it is rejected too.
+//!    badly, so it never gets one wrong centre. Such a blob is labelled again at half its
+//!    contrast ([`measure::split`]); markers that come apart there with at least 2 px between
+//!    their edges are measured each within its own half of the gap, closer ones are rejected.
+//!    A blob touching the image border is cut off, so it is rejected too.
 //!
 //! Sources: Cordier et al., §II-A and §IV-A (`paper.md`); Welzl, *Smallest enclosing disks*,
 //! 1991; the centre bias of a sphere's image: Matsuoka & Maruyama, *Eccentricity on an image
@@ -37,6 +39,7 @@
 pub mod circle;
 pub mod components;
 pub mod measure;
+pub mod repeatability;
 pub mod sphere;
 pub mod threshold;
 
@@ -46,6 +49,7 @@ use crate::camera::Camera;
 use crate::geometry::Pixel;
 
 pub use circle::{Circle, smallest_enclosing_circle};
+pub use repeatability::{MarkerSpread, RepeatabilityConfig, repeatability};
 pub use sphere::{SphereRange, sphere_center_pixel};
 pub use threshold::{Background, estimate_background};
 
@@ -368,13 +372,19 @@ pub fn detect_view<P: Intensity>(
     )?;
     let margin_px = cfg.window_margin_px.clamp(0.0, 64.0).ceil() as u32 + 1;
     let windows = measure::exclusive_windows(image, &regions, margin_px);
-    let blobs = regions
-        .iter()
-        .zip(windows)
-        .filter(|(region, _)| region.area >= cfg.min_area_px && region.area <= cfg.max_area_px)
-        .filter(|(region, _)| !region.touches_border(image.width, image.height))
-        .filter_map(|(region, window)| measure::measure(image, region, window, &background, cfg))
-        .filter(|blob| blob.roundness >= cfg.min_roundness)
-        .collect();
+    let mut blobs = Vec::new();
+    for (region, window) in regions.iter().zip(windows) {
+        if region.area < cfg.min_area_px || region.touches_border(image.width, image.height) {
+            continue;
+        }
+        let whole = (region.area <= cfg.max_area_px)
+            .then(|| measure::measure(image, region, window, &background, cfg))
+            .flatten();
+        match whole {
+            Some(blob) if blob.roundness >= cfg.min_roundness => blobs.push(blob),
+            // Not one round marker: perhaps several whose images merged.
+            _ => blobs.extend(measure::split(image, region, &background, cfg)),
+        }
+    }
     Ok(blobs)
 }

@@ -20,30 +20,36 @@
 //! # Modules, in the order data flows
 //! - [`geometry`]: frames, transforms, points, pixels, rays, ids.
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
-//! - [`calib`]: chessboard corners, Zhang intrinsics, rig extrinsics and bundle adjustment.
-//! - [`detect`]: marker blobs in an image, with sub-pixel centres.
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
-//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
+//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV, camera YAML).
+//! - [`calib`]: chessboard corners, Zhang intrinsics, rig extrinsics and bundle adjustment (§II-A).
+//! - [`detect`]: marker blobs in an image, with sub-pixel centres (§II-A, §IV-A).
 //! - [`correspond`]: which blobs in different cameras show the same marker (§II-A).
 //! - [`triangulate`]: 3-D points from corresponding blobs.
 //! - [`identify`]: which point is which marker, by distance-matrix voting (§II-B).
 //! - [`register`]: the tool's pose by SVD registration (§II-C).
 //! - [`track`]: the stages above per frame, frames in parallel.
 //! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
+//! - [`robot`]: vision↔robot frames, IRB 120 kinematics, the robot check, RAPID/KRL/URScript (§V).
+//! - [`c3d`]: C3D motion-capture files in and out.
+//! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
 //! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
 
-pub mod calib;
-pub mod camera;
-pub mod correspond;
-pub mod detect;
 pub mod geometry;
-pub mod identify;
-pub mod io;
-pub mod metrology;
-pub mod register;
-pub mod sim;
+pub mod camera;
 pub mod tool;
-pub mod track;
 pub mod trajectory;
+pub mod io;
+pub mod calib;
+pub mod detect;
+pub mod correspond;
 pub mod triangulate;
+pub mod identify;
+pub mod register;
+pub mod track;
+pub mod metrology;
+pub mod robot;
+pub mod c3d;
+pub mod vendor;
+pub mod sim;

@@ -161,25 +161,12 @@ impl<'a> Tracker<'a> {
                 points: positions.len(),
             });
         }
-        let model: Vec<Point3> = labels
-            .keys()
-            .map(|m| self.tool.markers_in_tool[m.0])
-            .collect();
-        let measured: Vec<Point3> = labels.values().map(|p| positions[*p]).collect();
-        let registration = register(&model, &measured, Scale::Fixed)?;
-        if registration.rms_mm > self.config.max_registration_rms_mm {
-            return Err(Lost::Residual {
-                rms_mm: registration.rms_mm,
-                max_mm: self.config.max_registration_rms_mm,
-            });
-        }
-        let world_from_tool = registration.measured_from_model;
-        Ok(ToolPose {
-            world_from_tool,
-            tip_in_world: world_from_tool * self.tool.tip_in_tool(),
-            markers: labels.len(),
-            rms_mm: registration.rms_mm,
-        })
+        let markers_in_world = labels.iter().map(|(m, p)| (*m, positions[*p])).collect();
+        pose_from_markers(
+            self.tool,
+            &markers_in_world,
+            self.config.max_registration_rms_mm,
+        )
     }
 
     /// Tracks every frame (in parallel) and assembles the trajectory; frame `i` is at time
@@ -200,4 +187,46 @@ impl<'a> Tracker<'a> {
             .collect();
         (Trajectory { samples }, tracks)
     }
+}
+
+/// The tool's pose from its identified markers' world positions: SVD registration with the
+/// scale fixed to 1 (the paper's choice), refused with fewer than three markers or when the
+/// fit leaves more than `max_rms_mm`.
+///
+/// # Errors
+/// [`Lost`] saying why there is no pose.
+pub fn pose_from_markers(
+    tool: &Tool,
+    markers_in_world: &BTreeMap<MarkerId, Point3>,
+    max_rms_mm: f64,
+) -> Result<ToolPose, Lost> {
+    if markers_in_world.len() < 3 {
+        return Err(Lost::TooFewMarkers {
+            identified: markers_in_world.len(),
+            points: markers_in_world.len(),
+        });
+    }
+    let model: Vec<Point3> = markers_in_world
+        .keys()
+        .map(|m| tool.markers_in_tool.get(m.0).copied())
+        .collect::<Option<_>>()
+        .ok_or(Lost::TooFewMarkers {
+            identified: 0,
+            points: markers_in_world.len(),
+        })?;
+    let measured: Vec<Point3> = markers_in_world.values().copied().collect();
+    let registration = register(&model, &measured, Scale::Fixed)?;
+    if registration.rms_mm > max_rms_mm {
+        return Err(Lost::Residual {
+            rms_mm: registration.rms_mm,
+            max_mm: max_rms_mm,
+        });
+    }
+    let world_from_tool = registration.measured_from_model;
+    Ok(ToolPose {
+        world_from_tool,
+        tip_in_world: world_from_tool * tool.tip_in_tool(),
+        markers: markers_in_world.len(),
+        rms_mm: registration.rms_mm,
+    })
 }

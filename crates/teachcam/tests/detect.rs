@@ -242,6 +242,54 @@ fn touching_discs_are_rejected_not_merged_into_one_centre() {
 }
 
 #[test]
+fn nearly_touching_discs_that_merge_at_threshold_are_split_and_measured() {
+    // Gaps of 2–4 px between edges: the blurred tails merge the two at the detection
+    // threshold for some of them, yet each marker must come out alone, at its centre.
+    let mut worst: f64 = 0.0;
+    let mut merged = 0;
+    for (k, gap) in [2.2, 2.6, 2.85, 3.2, 3.6, 4.0].into_iter().enumerate() {
+        for seed in 0..4 {
+            let scene = Scene {
+                blur_px: 0.6,
+                noise_std: 1.4,
+                ..paper_like_scene(100 * k as u64 + seed)
+            };
+            let (r1, r2) = (9.3, 9.76);
+            let angle = 1.3 + 0.4 * seed as f64;
+            let a = Disc {
+                x: 200.37,
+                y: 150.81,
+                radius_px: r1,
+            };
+            let b = Disc {
+                x: a.x + (r1 + r2 + gap) * angle.cos(),
+                y: a.y + (r1 + r2 + gap) * angle.sin(),
+                radius_px: r2,
+            };
+            let image = discs::render_u8(&scene, &[a, b]);
+            let threshold =
+                teachcam::detect::estimate_background(teachcam::detect::GrayView::new(&image))
+                    .auto_threshold::<u8>();
+            let regions = teachcam::detect::components::label(
+                teachcam::detect::GrayView::new(&image),
+                threshold,
+                100,
+            )
+            .unwrap();
+            merged += usize::from(regions.len() == 1);
+            let blobs = detect(&image, &DetectConfig::default()).unwrap();
+            let f = figures(&errors(&[a, b], &blobs));
+            assert_eq!((blobs.len(), f.missed), (2, 0), "gap {gap}, seed {seed}");
+            worst = worst.max(f.max);
+        }
+    }
+    eprintln!("near pairs: {merged} of 24 merged at threshold, worst error {worst:.4} px");
+    // Some pairs really merged, so the split path was exercised.
+    assert!(merged > 0);
+    assert!(worst < 0.06, "worst {worst}");
+}
+
+#[test]
 fn blobs_at_the_image_border_are_rejected() {
     let scene = paper_like_scene(4);
     let discs = [

@@ -1,0 +1,235 @@
+//! `teachcam check`: can the robot run this trajectory? Reach, joint limits, joint speeds,
+//! configuration changes and the wrist singularity, frame by frame.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use nalgebra::UnitQuaternion;
+use teachcam::geometry::Pose;
+use teachcam::io::trajectory::read_trajectory;
+use teachcam::robot::check::{CheckConfig, CheckReport, FrameIssue, check_path};
+use teachcam::robot::kinematics::RobotModel;
+use teachcam::robot::table::joints_csv;
+use teachcam::robot::{Cell, TcpTarget, tcp_targets};
+
+use crate::Rejected;
+
+/// Check a trajectory on a robot: reach, joint limits, joint speeds, singularities.
+///
+/// Every frame must be reachable with the joints inside their ranges and the joint
+/// speeds within the data sheet's at the recorded timing, no configuration change; frames near
+/// the wrist singularity are reported as warnings. Prints a summary, every failing frame and
+/// suggestions (slow down by a factor, move the work object); exits with status 1 when the
+/// program would fail on the robot.
+///
+/// Frames (CONTRACT.md, "Robot frames"): the trajectory's world is the work object; `--wobj`
+/// places it in the robot's base, `--tcp` places the brush's tip on the flange (`tool0`).
+///
+/// Example: `teachcam check smooth.csv --robot irb120 --wobj "350,0,150,1,0,0,0" --tcp
+/// "0,0,150,1,0,0,0" --joints-out joints.csv`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Trajectory CSV (from `track` or `smooth`).
+    pub trajectory: PathBuf,
+    #[command(flatten)]
+    pub cell: CellArgs,
+    /// Write the chosen joint angles (degrees, as a RAPID jointtarget) of every frame here.
+    #[arg(long)]
+    pub joints_out: Option<PathBuf>,
+}
+
+/// The robot and the frames that place the trajectory on it (shared by `check` and `export`).
+#[derive(Debug, clap::Args)]
+pub struct CellArgs {
+    /// Robot model.
+    #[arg(long, default_value = "irb120")]
+    pub robot: String,
+    /// Work object in the robot's base frame, "x,y,z,qw,qx,qy,qz" (mm; RAPID's uframe).
+    #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0")]
+    pub wobj: String,
+    /// Tool centre point in the flange frame tool0, "x,y,z,qw,qx,qy,qz" (mm; RAPID's tframe).
+    #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0")]
+    pub tcp: String,
+    /// Tool file whose `tip_rotation` turns the TCP frame (without it, the TCP has the tool's
+    /// orientation).
+    #[arg(long)]
+    pub tool: Option<PathBuf>,
+    /// Fraction of each axis's maximum speed the path may use (0 < f <= 1).
+    #[arg(long, default_value_t = 1.0)]
+    pub speed_fraction: f64,
+    /// Largest joint acceleration allowed on every axis, deg/s^2 (ABB publishes none; without
+    /// this flag accelerations are reported, not judged).
+    #[arg(long)]
+    pub max_acceleration_deg_s2: Option<f64>,
+}
+
+/// Everything `check` and `export` need, resolved from the arguments and files.
+pub struct Resolved {
+    /// The robot.
+    pub model: RobotModel,
+    /// The cell.
+    pub cell: Cell,
+    /// Targets of the frames with a pose.
+    pub targets: Vec<TcpTarget>,
+    /// Frames without a pose.
+    pub gaps: usize,
+    /// Check options.
+    pub config: CheckConfig,
+}
+
+/// Parses "x,y,z,qw,qx,qy,qz" into a pose, naming the flag on failure.
+pub fn parse_pose(text: &str, flag: &str) -> anyhow::Result<Pose> {
+    teachcam::geometry::parse_pose(text).with_context(|| flag.to_string())
+}
+
+/// Reads the trajectory and the tool, and parses the frames.
+pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
+    let model = RobotModel::by_name(&args.robot)
+        .with_context(|| format!("unknown robot '{}' (known: irb120)", args.robot))?;
+    let cell = Cell {
+        base_from_wobj: parse_pose(&args.wobj, "--wobj")?,
+        flange_from_tcp: parse_pose(&args.tcp, "--tcp")?,
+    };
+    if !(args.speed_fraction > 0.0 && args.speed_fraction <= 1.0) {
+        bail!(
+            "--speed-fraction {}: must be in (0, 1]",
+            args.speed_fraction
+        );
+    }
+    let tip_rotation = match &args.tool {
+        Some(path) => {
+            teachcam::io::tool::read_tool(path)
+                .rejected()?
+                .tool_from_tcp
+                .rotation
+        }
+        None => UnitQuaternion::identity(),
+    };
+    let trajectory = read_trajectory(trajectory).rejected()?;
+    let targets = tcp_targets(&trajectory, &tip_rotation);
+    if targets.is_empty() {
+        return Err(anyhow::anyhow!(
+            "{}: no frame has a pose",
+            args_path(trajectory.len())
+        ))
+        .rejected();
+    }
+    if let Some(a) = args.max_acceleration_deg_s2
+        && !(a.is_finite() && a > 0.0)
+    {
+        bail!("--max-acceleration-deg-s2 {a}: must be a positive number");
+    }
+    let config = CheckConfig {
+        speed_fraction: args.speed_fraction,
+        max_acceleration: args.max_acceleration_deg_s2.map(|a| [a.to_radians(); 6]),
+        ..CheckConfig::default()
+    };
+    Ok(Resolved {
+        model,
+        cell,
+        gaps: trajectory.len() - targets.len(),
+        targets,
+        config,
+    })
+}
+
+fn args_path(frames: usize) -> String {
+    format!("trajectory of {frames} frames")
+}
+
+/// The summary lines of a check: counts, every failing frame, suggestions.
+pub fn summary(report: &CheckReport, gaps: usize, robot: &str) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let failing: Vec<_> = report.failing().collect();
+    let _ = writeln!(
+        out,
+        "{robot}: {} frames checked ({gaps} without a pose), {} unreachable, {} failing, {} near the wrist singularity; peak joint speed {:.0}% of the limit",
+        report.frames.len(),
+        report.unreachable_count(),
+        failing.len(),
+        report.near_singular_count(),
+        100.0 * report.peak_speed_ratio
+    );
+    let speeds: Vec<String> = report
+        .peak_joint_speed
+        .iter()
+        .map(|v| format!("{:.0}", v.to_degrees()))
+        .collect();
+    let accelerations: Vec<String> = report
+        .peak_joint_acceleration
+        .iter()
+        .map(|v| format!("{:.0}", v.to_degrees()))
+        .collect();
+    let _ = writeln!(
+        out,
+        "peak joint speeds [{}] deg/s, accelerations [{}] deg/s^2 (axes 1-6)",
+        speeds.join(", "),
+        accelerations.join(", ")
+    );
+    let singular: Vec<String> = report
+        .frames
+        .iter()
+        .filter(|f| {
+            f.issues
+                .iter()
+                .any(|i| matches!(i, FrameIssue::NearSingular { .. }))
+        })
+        .map(|f| f.target.frame.0.to_string())
+        .collect();
+    if !singular.is_empty() {
+        let _ = writeln!(
+            out,
+            "warning: near the wrist singularity at frames {}",
+            singular.join(", ")
+        );
+    }
+    for f in &failing {
+        let issues: Vec<String> = f
+            .issues
+            .iter()
+            .filter(|i| i.is_failure())
+            .map(ToString::to_string)
+            .collect();
+        let _ = writeln!(
+            out,
+            "  frame {} (t = {:.3} s): {}",
+            f.target.frame.0,
+            f.target.time_s,
+            issues.join("; ")
+        );
+    }
+    for s in &report.suggestions {
+        let _ = writeln!(out, "suggestion: {s}");
+    }
+    out
+}
+
+/// Run the command.
+#[expect(clippy::print_stdout, reason = "the report is the command's output")]
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let resolved = resolve(&args.trajectory, &args.cell)?;
+    let report = check_path(
+        &resolved.model,
+        &resolved.cell,
+        &resolved.targets,
+        &resolved.config,
+    );
+    if let Some(path) = &args.joints_out {
+        teachcam::io::write_atomically(path, joints_csv(&report).as_bytes())?;
+    }
+    print!("{}", summary(&report, resolved.gaps, &resolved.model.name));
+    if report.passes() {
+        println!("ok: the robot can run this trajectory");
+        Ok(())
+    } else {
+        Err(anyhow::anyhow!(
+            "{}: {} of {} frames fail on the {}",
+            args.trajectory.display(),
+            report.failing().count(),
+            report.frames.len(),
+            resolved.model.name
+        ))
+        .rejected()
+    }
+}

@@ -1,0 +1,259 @@
+//! `teachcam detect`: marker blobs with sub-pixel centres in every frame of a recording.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use rayon::prelude::*;
+use teachcam::camera::Rig;
+use teachcam::detect::{Blob, CenterMethod, DetectConfig, Threshold, detect};
+use teachcam::io::recording::{GrayFrame, Recording, open_recording, read_frame};
+use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
+
+use crate::Rejected;
+use crate::progress::Progress;
+
+/// Find the marker blobs in every frame of a recording and write their sub-pixel centres.
+///
+/// Each frame is thresholded (automatically from its background and noise unless
+/// `--threshold` is given), its 8-connected bright regions are measured, and the regions that
+/// are too small, too large, not round (two touching markers) or cut by the image border are
+/// left out. Frames run in parallel.
+///
+/// Output columns: `camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak`
+/// (camera = the sub-folder's name, frame = 0-based index, centre in OpenCV pixels, radius of
+/// the equal-flux disc, predicted centre noise per axis).
+///
+/// With `--rig` and a marker size (`--tool` or `--marker-diameter`), the size limits follow from
+/// each camera's focal length and `--near`/`--far`, and the `refined` centre is moved from the
+/// centre of the sphere's elliptical image to the projection of the sphere's centre.
+///
+/// Example: `teachcam detect rec -o detections.csv --rig rec/rig.json --tool rec/tool.json`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Recording folder: one sub-folder of PNG frames per camera.
+    pub recording: PathBuf,
+    /// Output CSV file (written whole or not at all).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Detector options.
+    #[command(flatten)]
+    pub options: DetectOptions,
+}
+
+/// Detector options shared by the commands that detect blobs.
+#[derive(Debug, clap::Args)]
+pub struct DetectOptions {
+    /// Centre estimate: `refined` (background-subtracted centroid over a disc holding the
+    /// blurred edge, most accurate), `centroid` (over the blob's own pixels) or
+    /// `smallest-circle` (the paper's: centre of the smallest enclosing circle).
+    #[arg(long, default_value = "refined")]
+    pub method: CenterMethod,
+    /// Fixed threshold in the images' units: a pixel is foreground when strictly above it.
+    /// Default: background median + max(8 noise std, full scale / 32), per frame.
+    #[arg(long)]
+    pub threshold: Option<u32>,
+    /// Smallest blob kept, pixels (default 4, or from the rig and marker size).
+    #[arg(long)]
+    pub min_area: Option<usize>,
+    /// Largest blob kept, pixels (default 40000, or from the rig and marker size).
+    #[arg(long)]
+    pub max_area: Option<usize>,
+    /// Smallest roundness kept, 0..1 (1 = disc; two touching equal discs have 0.5).
+    #[arg(long, default_value_t = 0.75)]
+    pub min_roundness: f64,
+    /// Camera rig (rig.json): size limits and sphere-centre correction per camera.
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
+    /// Tool model (tool.json), for its marker diameter.
+    #[arg(long, conflicts_with = "marker_diameter")]
+    pub tool: Option<PathBuf>,
+    /// Marker sphere diameter, millimetres.
+    #[arg(long)]
+    pub marker_diameter: Option<f64>,
+    /// Nearest distance from a camera to a marker, millimetres (with --rig).
+    #[arg(long, default_value_t = 300.0)]
+    pub near: f64,
+    /// Farthest distance from a camera to a marker, millimetres (with --rig).
+    #[arg(long, default_value_t = 3000.0)]
+    pub far: f64,
+}
+
+/// The blobs of one frame of one camera.
+#[derive(Debug)]
+pub struct FrameBlobs {
+    /// Camera (sub-folder) name.
+    pub camera: String,
+    /// 0-based frame index.
+    pub frame: usize,
+    /// The blobs, in raster order.
+    pub blobs: Vec<Blob>,
+}
+
+/// The detector configuration of each camera of the recording, in the recording's order.
+///
+/// # Errors
+/// Rejected data when a file cannot be read, the rig lacks a camera of the recording, or a
+/// number is out of range.
+pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Vec<DetectConfig>> {
+    if !(args.min_roundness.is_finite() && (0.0..=1.0).contains(&args.min_roundness)) {
+        return Err(anyhow::anyhow!(
+            "--min-roundness must be within 0..1, got {}",
+            args.min_roundness
+        ))
+        .rejected();
+    }
+    if !(args.near.is_finite() && args.far.is_finite() && 0.0 < args.near && args.near < args.far) {
+        return Err(anyhow::anyhow!(
+            "--near and --far must satisfy 0 < near < far, got {} and {}",
+            args.near,
+            args.far
+        ))
+        .rejected();
+    }
+    let diameter_mm = match (&args.tool, args.marker_diameter) {
+        (Some(tool), _) => Some(read_tool(tool).rejected()?.marker_diameter_mm),
+        (None, Some(d)) if d.is_finite() && d > 0.0 => Some(d),
+        (None, Some(d)) => {
+            return Err(anyhow::anyhow!(
+                "--marker-diameter must be a positive number of millimetres, got {d}"
+            ))
+            .rejected();
+        }
+        (None, None) => None,
+    };
+    let rig: Option<Rig> = args
+        .rig
+        .as_deref()
+        .map(|path| read_rig(path).rejected())
+        .transpose()?;
+    recording
+        .cameras
+        .iter()
+        .map(|frames| {
+            let mut cfg = match (&rig, diameter_mm) {
+                (Some(rig), Some(d)) => {
+                    let camera = rig
+                        .cameras
+                        .iter()
+                        .find(|c| c.name == frames.name)
+                        .with_context(|| {
+                            format!(
+                                "recording camera {} is not in the rig {}",
+                                frames.name,
+                                args.rig.as_deref().unwrap_or(Path::new("")).display()
+                            )
+                        })
+                        .rejected()?;
+                    DetectConfig::for_marker(camera, d, args.near, args.far)
+                }
+                _ => DetectConfig::default(),
+            };
+            cfg.method = args.method;
+            cfg.min_roundness = args.min_roundness;
+            if let Some(t) = args.threshold {
+                cfg.threshold = Threshold::Fixed(t);
+            }
+            if let Some(a) = args.min_area {
+                cfg.min_area_px = a;
+            }
+            if let Some(a) = args.max_area {
+                cfg.max_area_px = a;
+            }
+            Ok(cfg)
+        })
+        .collect()
+}
+
+/// Detects the blobs of every frame of every camera, frames in parallel, in camera then frame
+/// order; `on_frame` is called after each frame.
+///
+/// # Errors
+/// Rejected data naming the camera, frame and file of the first frame that cannot be read or
+/// searched.
+pub fn detect_recording(
+    recording: &Recording,
+    configs: &[DetectConfig],
+    on_frame: &(dyn Fn() + Sync),
+) -> anyhow::Result<Vec<FrameBlobs>> {
+    let jobs: Vec<(usize, usize)> = recording
+        .cameras
+        .iter()
+        .enumerate()
+        .flat_map(|(c, cam)| (0..cam.frames.len()).map(move |f| (c, f)))
+        .collect();
+    jobs.par_iter()
+        .map(|&(c, f)| {
+            let camera = &recording.cameras[c];
+            let path = &camera.frames[f];
+            let image = read_frame(path, None)
+                .with_context(|| format!("camera {}, frame {f}", camera.name))
+                .rejected()?;
+            let blobs = match &image {
+                GrayFrame::Eight(i) => detect(i, &configs[c]),
+                GrayFrame::Sixteen(i) => detect(i, &configs[c]),
+            }
+            .with_context(|| format!("camera {}, frame {f} ({})", camera.name, path.display()))
+            .rejected()?;
+            on_frame();
+            Ok(FrameBlobs {
+                camera: camera.name.clone(),
+                frame: f,
+                blobs,
+            })
+        })
+        .collect()
+}
+
+/// The CSV text of the detections.
+fn csv_text(frames: &[FrameBlobs]) -> String {
+    let mut text =
+        String::from("camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak\n");
+    for f in frames {
+        let camera = csv_field(&f.camera);
+        for b in &f.blobs {
+            // Writing to a String cannot fail.
+            let _ = writeln!(
+                text,
+                "{camera},{},{:.4},{:.4},{:.3},{},{:.3},{:.4},{}",
+                f.frame,
+                b.center.x,
+                b.center.y,
+                b.radius_px,
+                b.area_px,
+                b.roundness,
+                b.center_std_px,
+                b.peak
+            );
+        }
+    }
+    text
+}
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let recording = open_recording(&args.recording, None).rejected()?;
+    let configs = configs(&args.options, &recording)?;
+    let total: usize = recording.cameras.iter().map(|c| c.frames.len()).sum();
+    let progress = Progress::new("detect", total as u64);
+    let frames = detect_recording(&recording, &configs, &|| progress.tick())?;
+    progress.finish();
+    write_atomically(&args.output, csv_text(&frames).as_bytes())?;
+    let blobs: usize = frames.iter().map(|f| f.blobs.len()).sum();
+    eprintln!(
+        "{blobs} blobs in {} frames x {} cameras -> {}",
+        recording.frame_count(),
+        recording.cameras.len(),
+        args.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,136 @@
+//! `teachcam export`: a robot program for the trajectory of the TCP.
+
+use std::path::PathBuf;
+
+use teachcam::io::write_atomically;
+use teachcam::robot::check::check_path;
+use teachcam::robot::krl::krl_program;
+use teachcam::robot::program::build_program;
+use teachcam::robot::rapid::{RapidConfig, rapid_module};
+use teachcam::robot::simplify::SimplifyConfig;
+use teachcam::robot::table::poses_csv;
+use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
+
+use super::check::{CellArgs, resolve, summary};
+use crate::Rejected;
+
+/// The program dialects.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Dialect {
+    /// ABB RAPID module (.mod): tooldata, wobjdata, robtargets with confdata, MoveL.
+    Rapid,
+    /// KUKA KRL: FILE.src (LIN, $VEL.CP) and FILE.dat (E6POS points) beside it.
+    Krl,
+    /// Universal Robots URScript (.script): movel with p[...] in metres and rotation vectors.
+    Urscript,
+    /// CSV of every frame's TCP pose in the work object and the checked joints.
+    Csv,
+}
+
+/// Write a robot program (RAPID, KRL, URScript or CSV) for a trajectory.
+///
+/// The trajectory is checked on the robot first
+/// (as `teachcam check`); a program that would fail is not written unless `--force` is given.
+/// Targets are simplified within the path tolerance; each move's speed reproduces the recorded
+/// timing.
+///
+/// Example: `teachcam export rapid smooth.csv --wobj "350,0,150,1,0,0,0" --tcp
+/// "0,0,150,1,0,0,0" -o stroke.mod`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Program dialect.
+    #[arg(value_enum)]
+    pub dialect: Dialect,
+    /// Trajectory CSV (from `track` or `smooth`).
+    pub trajectory: PathBuf,
+    #[command(flatten)]
+    pub cell: CellArgs,
+    /// Output file (for krl, the .src; the .dat is written beside it).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Path tolerance for dropping targets, millimetres.
+    #[arg(long, default_value_t = 0.5)]
+    pub tolerance_mm: f64,
+    /// Orientation tolerance for dropping targets, degrees.
+    #[arg(long, default_value_t = 0.5)]
+    pub tolerance_deg: f64,
+    /// Program name (default: the output file's name).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Write the program even when the check fails.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Run the command.
+#[expect(
+    clippy::print_stdout,
+    reason = "the check's summary is part of the output"
+)]
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    if !(args.tolerance_mm > 0.0 && args.tolerance_deg > 0.0) {
+        anyhow::bail!("--tolerance-mm and --tolerance-deg must be positive");
+    }
+    let resolved = resolve(&args.trajectory, &args.cell)?;
+    let report = check_path(
+        &resolved.model,
+        &resolved.cell,
+        &resolved.targets,
+        &resolved.config,
+    );
+    if !report.passes() {
+        print!("{}", summary(&report, resolved.gaps, &resolved.model.name));
+        if !args.force {
+            return Err(anyhow::anyhow!(
+                "{}: {} of {} frames fail on the {}; no program written (--force writes it anyway)",
+                args.trajectory.display(),
+                report.failing().count(),
+                report.frames.len(),
+                resolved.model.name
+            ))
+            .rejected();
+        }
+    }
+    let name = args.name.clone().unwrap_or_else(|| {
+        args.output
+            .file_stem()
+            .map_or_else(|| "teachcam".into(), |s| s.to_string_lossy().into_owned())
+    });
+    let tolerance = SimplifyConfig {
+        position_tolerance: args.tolerance_mm,
+        orientation_tolerance: args.tolerance_deg.to_radians(),
+    };
+    let program = build_program(&name, &resolved.cell, &report, &tolerance);
+    match args.dialect {
+        Dialect::Rapid => write_atomically(
+            &args.output,
+            rapid_module(&program, &RapidConfig::default()).as_bytes(),
+        )?,
+        Dialect::Krl => {
+            let krl = krl_program(&program);
+            let dat = args.output.with_extension("dat");
+            write_atomically(&dat, krl.dat.as_bytes())?;
+            write_atomically(&args.output, krl.src.as_bytes())?;
+        }
+        Dialect::Urscript => write_atomically(
+            &args.output,
+            urscript_program(&program, &UrScriptConfig::default()).as_bytes(),
+        )?,
+        Dialect::Csv => write_atomically(&args.output, poses_csv(&report).as_bytes())?,
+    }
+    if args.dialect == Dialect::Csv {
+        println!(
+            "wrote {} ({} frames)",
+            args.output.display(),
+            report.frames.len()
+        );
+    } else {
+        println!(
+            "wrote {} ({} moves from {} frames)",
+            args.output.display(),
+            program.moves.len(),
+            report.frames.len()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,180 @@
+//! `teachcam import`: another tracker's marker data → the tool's trajectory CSV.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use anyhow::bail;
+use teachcam::c3d::{self, MarkerSelection, PointData, ToolFromDataConfig, TrackMarkersConfig};
+use teachcam::identify::IdentifyConfig;
+use teachcam::io::tool::{read_tool, write_tool};
+use teachcam::io::trajectory::write_trajectory;
+use teachcam::vendor;
+
+use crate::{DataRejected, Rejected as _};
+
+/// Turn another tracker's markers (Vicon, Qualisys, OptiTrack, NDI) into the trajectory of a
+/// rigid tool: pick the tool's markers by label or by the distance-matrix identification of a
+/// `tool.json`, register the tool in every frame, and write the trajectory CSV (`teachcam
+/// smooth` and `teachcam export` take it from there).
+///
+/// With `--markers` and no `--tool`, the tool is built from the data itself (mean shape over
+/// `--static-frames`, tool frame from the first three markers: origin at the first, x towards
+/// the second, the third in the xy-plane); `--tool-out` saves it.
+///
+/// Examples:
+///   `teachcam import c3d trial.c3d --tool probe.json --markers Probe1,Probe2,Probe3,Probe4 -o traj.csv`
+///   `teachcam import c3d trial.c3d --markers Probe1,Probe2,Probe3 --tool-out probe.json -o traj.csv`
+///   `teachcam import motive take.csv --tool brush.json -o traj.csv`
+///   `teachcam import markers markers.csv --fps 30 --markers M0,M1,M2,M3 --tool-out brush.json -o traj.csv`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// File format: c3d, motive (OptiTrack Motive CSV) or qualisys (QTM TSV).
+    #[arg(value_enum)]
+    pub format: Format,
+    /// The marker file.
+    pub file: PathBuf,
+    /// The tool (`tool.json`); without `--markers` its markers are found by distance-matrix
+    /// identification among all markers of each frame.
+    #[arg(long)]
+    pub tool: Option<PathBuf>,
+    /// Labels of the tool's markers, comma-separated, in the tool's marker order.
+    #[arg(long, value_delimiter = ',')]
+    pub markers: Vec<String>,
+    /// Frames (0-based, `START..END`, END excluded) over which to build the tool from data.
+    #[arg(long, default_value = "0..", value_parser = parse_frames)]
+    pub static_frames: Range<usize>,
+    /// A marker label whose mean position becomes the tool centre point of a tool built from
+    /// data (default: the first marker).
+    #[arg(long)]
+    pub tip: Option<String>,
+    /// Where to save a tool built from data.
+    #[arg(long)]
+    pub tool_out: Option<PathBuf>,
+    /// Identification tolerance on marker distances, millimetres.
+    #[arg(long, default_value_t = 1.0)]
+    pub identify_tolerance_mm: f64,
+    /// Largest registration RMS of a pose, millimetres; worse frames become gaps.
+    #[arg(long, default_value_t = TrackMarkersConfig::default().max_registration_rms_mm)]
+    pub max_rms_mm: f64,
+    /// Frames per second of a `markers` file (the other formats carry their rate).
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// The trajectory CSV to write.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Marker file formats `import` reads.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum Format {
+    /// C3D (any processor, integer or float storage).
+    C3d,
+    /// OptiTrack Motive marker CSV export.
+    Motive,
+    /// Qualisys QTM 3D TSV export.
+    Qualisys,
+    /// The identified 3-D markers of `teachcam track --markers-out` (needs `--fps`).
+    Markers,
+}
+
+/// `START..END` or `START..` (to the end), 0-based frames.
+pub fn parse_frames(text: &str) -> Result<Range<usize>, String> {
+    let (a, b) = text
+        .split_once("..")
+        .ok_or_else(|| format!("{text:?} is not START..END"))?;
+    let start = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("{a:?} is not a frame number"))?;
+    let end = if b.trim().is_empty() {
+        usize::MAX
+    } else {
+        b.trim()
+            .parse()
+            .map_err(|_| format!("{b:?} is not a frame number"))?
+    };
+    if end <= start {
+        return Err(format!("{text:?} is empty"));
+    }
+    Ok(start..end)
+}
+
+/// Reads marker data in `format`; `fps` is the rate of a `markers` file.
+pub fn read_points(format: Format, file: &Path, fps: Option<f64>) -> anyhow::Result<PointData> {
+    let points = match format {
+        Format::Markers => {
+            let Some(fps) = fps else {
+                bail!("a markers file needs --fps");
+            };
+            vendor::read_markers_csv(file, fps).map_err(anyhow::Error::from)
+        }
+        Format::C3d => c3d::read_file(file)
+            .map(|c| c.points)
+            .map_err(anyhow::Error::from),
+        Format::Motive => vendor::read_motive_csv(file).map_err(anyhow::Error::from),
+        Format::Qualisys => vendor::read_qualisys_tsv(file).map_err(anyhow::Error::from),
+    };
+    points.rejected()
+}
+
+/// Run `teachcam import`.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let points = read_points(args.format, &args.file, args.fps)?;
+    let in_file = |e: c3d::C3dError| {
+        let named = anyhow::Error::from(e).context(args.file.display().to_string());
+        anyhow::Error::new(DataRejected(named))
+    };
+    let columns = points.marker_indices(&args.markers).map_err(in_file)?;
+    let (tool, selection) = match (&args.tool, columns.is_empty()) {
+        (None, true) => bail!("give --tool, --markers or both (see --help)"),
+        (Some(path), true) => {
+            let tool = read_tool(path).rejected()?;
+            let identify = IdentifyConfig {
+                distance_tolerance_mm: args.identify_tolerance_mm,
+            };
+            (tool, MarkerSelection::Identify(identify))
+        }
+        (Some(path), false) => {
+            let tool = read_tool(path).rejected()?;
+            (tool, MarkerSelection::Labels(columns))
+        }
+        (None, false) => {
+            let tip = match &args.tip {
+                Some(label) => Some(points.marker_indices(&[label]).map_err(in_file)?[0]),
+                None => None,
+            };
+            let config = ToolFromDataConfig {
+                name: args
+                    .file
+                    .file_stem()
+                    .map_or("tool".into(), |s| s.to_string_lossy().into_owned()),
+                ..ToolFromDataConfig::default()
+            };
+            let built =
+                c3d::tool_from_data(&points, &columns, args.static_frames.clone(), tip, &config)
+                    .map_err(in_file)?;
+            if let Some(out) = &args.tool_out {
+                write_tool(out, &built.tool)?;
+            }
+            (built.tool, MarkerSelection::Labels(columns))
+        }
+    };
+    let config = TrackMarkersConfig {
+        max_registration_rms_mm: args.max_rms_mm,
+    };
+    let trajectory = c3d::track_markers(&points, &tool, &selection, &config).map_err(in_file)?;
+    write_trajectory(&args.output, &trajectory)?;
+    let posed: Vec<f64> = trajectory
+        .samples
+        .iter()
+        .filter_map(|s| s.pose.map(|p| p.rms_mm))
+        .collect();
+    let worst = posed.iter().copied().fold(0.0, f64::max);
+    eprintln!(
+        "{}: {} of {} frames with a pose, registration RMS up to {worst:.3} mm",
+        args.output.display(),
+        posed.len(),
+        trajectory.len()
+    );
+    Ok(())
+}

@@ -1,0 +1,209 @@
+//! `teachcam track`: the tool's trajectory from a recording (paper §II).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use teachcam::correspond::Views;
+use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
+use teachcam::identify::check_identifiable;
+use teachcam::io::recording::{check_recording_against_rig, open_recording, read_frame};
+use teachcam::io::trajectory::write_trajectory;
+use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::metrology::first_order;
+use teachcam::track::{FrameTrack, TrackConfig, Tracker};
+
+use crate::Rejected;
+use crate::cmd::detect::detect_recording;
+use crate::progress::Progress;
+
+/// Track the tool through a recording: detect the marker blobs in every camera, match them
+/// across cameras (the paper's trinocular loop), triangulate, identify the tool's markers by
+/// their distances, and register the tool (SVD, scale 1). Writes the contract's trajectory CSV:
+/// one row per frame, pose fields empty where the frame has no pose, plus `tip_std_mm`, the
+/// first-order tip uncertainty of the frame from its blobs' predicted centre noise.
+///
+/// Example: `teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --diagnostics diag.csv`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Recording folder: one sub-folder of PNG frames per rig camera.
+    pub recording: PathBuf,
+    /// Camera rig (rig.json).
+    #[arg(long)]
+    pub rig: PathBuf,
+    /// Tool model (tool.json).
+    #[arg(long)]
+    pub tool: PathBuf,
+    /// Output trajectory CSV.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write the identified 3-D markers per frame:
+    /// `frame,marker,x_mm,y_mm,z_mm,views,residual_px`.
+    #[arg(long)]
+    pub markers_out: Option<PathBuf>,
+    /// Also write per-frame diagnostics: `frame,status,reason,points,markers,views_per_marker,max_residual_px`.
+    #[arg(long)]
+    pub diagnostics: Option<PathBuf>,
+    /// Frames per second (overrides recording.json; default 30).
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
+    #[arg(long, default_value = "refined")]
+    pub method: CenterMethod,
+    /// Fixed detection threshold in the images' units (default: automatic per frame).
+    #[arg(long)]
+    pub threshold: Option<u32>,
+    /// Nearest distance from a camera to a marker, millimetres.
+    #[arg(long, default_value_t = 300.0)]
+    pub near: f64,
+    /// Farthest distance from a camera to a marker, millimetres.
+    #[arg(long, default_value_t = 3000.0)]
+    pub far: f64,
+    /// Largest distance of a blob from an epipolar line, pixels.
+    #[arg(long, default_value_t = TrackConfig::default().correspond.epipolar_tolerance_px)]
+    pub epipolar_tolerance: f64,
+    /// Tolerance on marker distances for identification, millimetres.
+    #[arg(long, default_value_t = TrackConfig::default().identify.distance_tolerance_mm)]
+    pub distance_tolerance: f64,
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let rig = read_rig(&args.rig).rejected()?;
+    let tool = read_tool(&args.tool).rejected()?;
+    let mut config = TrackConfig::default();
+    config.correspond.epipolar_tolerance_px = args.epipolar_tolerance;
+    config.identify.distance_tolerance_mm = args.distance_tolerance;
+    check_identifiable(&tool, &config.identify)
+        .with_context(|| format!("{}", args.tool.display()))
+        .rejected()?;
+    if !(args.near > 0.0 && args.near < args.far) {
+        return Err(anyhow::anyhow!(
+            "--near and --far must satisfy 0 < near < far"
+        ))
+        .rejected();
+    }
+    let mut recording = open_recording(&args.recording, args.fps).rejected()?;
+    check_recording_against_rig(&recording, &rig).rejected()?;
+    // Only the rig's cameras, in the rig's order, each checked for its image size.
+    recording.cameras = rig
+        .cameras
+        .iter()
+        .filter_map(|c| recording.camera(&c.name).cloned())
+        .collect();
+    for (camera, frames) in rig.cameras.iter().zip(&recording.cameras) {
+        let expected = (camera.image_size.width, camera.image_size.height);
+        if let Some(first) = frames.frames.first() {
+            read_frame(first, Some(expected))
+                .with_context(|| format!("camera {}", camera.name))
+                .rejected()?;
+        }
+    }
+    let configs: Vec<DetectConfig> = rig
+        .cameras
+        .iter()
+        .map(|camera| {
+            let mut cfg =
+                DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far);
+            cfg.method = args.method;
+            if let Some(t) = args.threshold {
+                cfg.threshold = Threshold::Fixed(t);
+            }
+            cfg
+        })
+        .collect();
+    let total = recording.frame_count() * recording.cameras.len();
+    let progress = Progress::new("detect", total as u64);
+    let detections = detect_recording(&recording, &configs, &|| progress.tick())?;
+    progress.finish();
+
+    let frame_count = recording.frame_count();
+    let mut views: Vec<Views> = vec![Views::new(); frame_count];
+    let mut noise: Vec<Vec<f64>> = vec![Vec::new(); frame_count];
+    for d in &detections {
+        let Some(id) = rig.id_of(&d.camera) else {
+            continue;
+        };
+        views[d.frame].insert(id, d.blobs.iter().map(|b| b.center).collect());
+        noise[d.frame].extend(d.blobs.iter().map(|b| b.center_std_px));
+    }
+    let tracker = Tracker::new(&rig, &tool, config);
+    let (mut trajectory, tracks) = tracker.track_all(&views, recording.fps);
+    for (sample, frame_noise) in trajectory.samples.iter_mut().zip(&noise) {
+        let Some(pose) = sample.pose else { continue };
+        let rms = (frame_noise.iter().map(|s| s * s).sum::<f64>()
+            / frame_noise.len().max(1) as f64)
+            .sqrt();
+        if rms > 0.0 {
+            sample.tip_std_mm = first_order(&rig, &tool, &pose.world_from_tool, rms)
+                .ok()
+                .map(|u| u.tip_rms_mm);
+        }
+    }
+    write_trajectory(&args.output, &trajectory)?;
+    if let Some(path) = &args.markers_out {
+        write_atomically(path, markers_csv(&tracks).as_bytes())?;
+    }
+    if let Some(path) = &args.diagnostics {
+        write_atomically(path, diagnostics_csv(&tracks).as_bytes())?;
+    }
+    let tracked = trajectory
+        .samples
+        .iter()
+        .filter(|s| s.pose.is_some())
+        .count();
+    eprintln!(
+        "{tracked} of {frame_count} frames tracked -> {}",
+        args.output.display()
+    );
+    Ok(())
+}
+
+fn markers_csv(tracks: &[FrameTrack]) -> String {
+    let mut out = String::from("frame,marker,x_mm,y_mm,z_mm,views,residual_px\n");
+    for (frame, track) in tracks.iter().enumerate() {
+        for (marker, point) in &track.labels {
+            let p = &track.points[*point];
+            let _ = writeln!(
+                out,
+                "{frame},{},{:.6},{:.6},{:.6},{},{:.4}",
+                marker.0,
+                p.position.x,
+                p.position.y,
+                p.position.z,
+                p.views.len(),
+                p.residual_px
+            );
+        }
+    }
+    out
+}
+
+fn diagnostics_csv(tracks: &[FrameTrack]) -> String {
+    let mut out =
+        String::from("frame,status,reason,points,markers,views_per_marker,max_residual_px\n");
+    for (frame, track) in tracks.iter().enumerate() {
+        let (status, reason) = match &track.outcome {
+            Ok(_) => ("tracked", String::new()),
+            Err(lost) => ("lost", lost.to_string().replace(',', ";")),
+        };
+        let views: Vec<String> = track
+            .views_per_marker()
+            .iter()
+            .map(|(m, v)| format!("{}:{v}", m.0))
+            .collect();
+        let max_residual = track
+            .points
+            .iter()
+            .map(|p| p.residual_px)
+            .fold(0.0, f64::max);
+        let _ = writeln!(
+            out,
+            "{frame},{status},{reason},{},{},{},{max_residual:.4}",
+            track.points.len(),
+            track.labels.len(),
+            views.join(" ")
+        );
+    }
+    out
+}

@@ -1,0 +1,301 @@
+//! `teachcam check` and `teachcam export` on closed-form strokes: exit statuses, frame-by-frame
+//! reports, programs written whole or not at all.
+
+use std::f64::consts::{PI, TAU};
+use std::path::Path;
+use std::process::{Command, Output};
+
+use nalgebra::{UnitQuaternion, Vector3};
+use teachcam::geometry::{FrameIndex, Point3, pose_from_parts};
+use teachcam::io::trajectory::write_trajectory;
+use teachcam::trajectory::{Sample, ToolPose, Trajectory};
+
+const WOBJ: &str = "350,0,150,1,0,0,0";
+const TCP: &str = "0,0,150,1,0,0,0";
+
+/// A 4 s painter's stroke at 30 Hz (sums of sinusoids), brush pointing down, `time_scale`
+/// stretching its timing; tool frame = TCP frame.
+fn write_stroke(path: &Path, time_scale: f64) {
+    let samples = (0..120)
+        .map(|k| {
+            let t = f64::from(k) / 30.0;
+            let tip = Vector3::new(
+                60.0 * (TAU * 0.4 * t).sin(),
+                40.0 * (TAU * 0.25 * t + 1.0).sin(),
+                15.0 + 8.0 * (TAU * 0.7 * t).sin(),
+            );
+            let rotation = UnitQuaternion::from_euler_angles(0.2 * (TAU * 0.3 * t).sin(), 0.1, 0.3)
+                * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI);
+            Sample::measured(
+                FrameIndex(k as usize),
+                t * time_scale,
+                ToolPose {
+                    world_from_tool: pose_from_parts(tip, rotation),
+                    tip_in_world: Point3::from(tip),
+                    markers: 4,
+                    rms_mm: 0.05,
+                },
+            )
+        })
+        .collect();
+    write_trajectory(path, &Trajectory { samples }).unwrap();
+}
+
+fn teachcam(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_teachcam"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn check_passes_and_writes_one_joint_row_per_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    let joints = dir.path().join("joints.csv");
+    let out = teachcam(&[
+        "check",
+        trajectory.to_str().unwrap(),
+        "--robot",
+        "irb120",
+        "--wobj",
+        WOBJ,
+        "--tcp",
+        TCP,
+        "--joints-out",
+        joints.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let table = std::fs::read_to_string(&joints).unwrap();
+    assert!(table.starts_with("frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg"));
+    assert_eq!(table.lines().count(), 121);
+}
+
+#[test]
+fn too_far_is_reported_frame_by_frame_with_exit_status_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    let out = teachcam(&[
+        "check",
+        trajectory.to_str().unwrap(),
+        "--wobj",
+        "650,0,150,1,0,0,0",
+        "--tcp",
+        TCP,
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains("frame 0 (t = 0.000 s): out of reach"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("suggestion: move the work object"),
+        "{stdout}"
+    );
+    assert!(text(&out.stderr).contains("stroke.csv"));
+}
+
+#[test]
+fn too_fast_program_is_not_written_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("fast.csv");
+    write_stroke(&trajectory, 1.0 / 10.0);
+    let program = dir.path().join("fast.mod");
+    let args = [
+        "export",
+        "rapid",
+        trajectory.to_str().unwrap(),
+        "--wobj",
+        WOBJ,
+        "--tcp",
+        TCP,
+        "-o",
+        program.to_str().unwrap(),
+    ];
+    let out = teachcam(&args);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stdout).contains("too fast"));
+    assert!(text(&out.stdout).contains("suggestion: slow the trajectory down"));
+    assert!(!program.exists());
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    let out = teachcam(&forced);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        std::fs::read_to_string(&program)
+            .unwrap()
+            .starts_with("MODULE fast")
+    );
+}
+
+#[test]
+fn every_dialect_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    for (dialect, file, first) in [
+        ("rapid", "p.mod", "MODULE p"),
+        ("krl", "p.src", "&ACCESS RVP"),
+        ("urscript", "p.script", "def p():"),
+        ("csv", "p.csv", "frame,time_s,x_mm"),
+    ] {
+        let path = dir.path().join(file);
+        let out = teachcam(&[
+            "export",
+            dialect,
+            trajectory.to_str().unwrap(),
+            "--wobj",
+            WOBJ,
+            "--tcp",
+            TCP,
+            "-o",
+            path.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{dialect}: {}", text(&out.stderr));
+        assert!(std::fs::read_to_string(&path).unwrap().starts_with(first));
+    }
+    assert!(
+        std::fs::read_to_string(dir.path().join("p.dat"))
+            .unwrap()
+            .contains("DEFDAT p")
+    );
+}
+
+#[test]
+fn bad_inputs_name_the_flag_or_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    let path = trajectory.to_str().unwrap();
+    let out = teachcam(&["check", path, "--wobj", "1,2,3"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("--wobj"));
+    let out = teachcam(&["check", path, "--tcp", "0,0,0,2,0,0,0"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("--tcp"));
+    let out = teachcam(&["check", path, "--robot", "kr6"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("kr6"));
+    let missing = dir.path().join("missing.csv");
+    let out = teachcam(&["check", missing.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("missing.csv"));
+    std::fs::write(&trajectory, "frame,time_s\n0,0\n").unwrap();
+    let never = dir.path().join("never.mod");
+    let out = teachcam(&["export", "rapid", path, "-o", never.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("header"));
+    assert!(!never.exists());
+}
+
+#[test]
+fn align_prints_the_work_object_and_refuses_collinear_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let points = dir.path().join("touched.csv");
+    // base = wobj + (350, 0, 150), rotated 90° about z: (x, y) -> (-y, x).
+    std::fs::write(
+        &points,
+        "x_wobj_mm,y_wobj_mm,z_wobj_mm,x_base_mm,y_base_mm,z_base_mm\n\
+         0,0,0,350,0,150\n100,0,0,350,100,150\n0,100,0,250,0,150\n100,100,5,250,100,155\n",
+    )
+    .unwrap();
+    let out = teachcam(&["align", points.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains(
+            "--wobj \"350.000,0.000,150.000,0.707106781,0.000000000,0.000000000,0.707106781\""
+        ),
+        "{stdout}"
+    );
+    std::fs::write(
+        &points,
+        "x_wobj_mm,y_wobj_mm,z_wobj_mm,x_base_mm,y_base_mm,z_base_mm\n0,0,0,0,0,0\n1,0,0,1,0,0\n2,0,0,2,0,0\n",
+    )
+    .unwrap();
+    let out = teachcam(&["align", points.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("collinear"));
+    std::fs::write(&points, "x,y\n").unwrap();
+    let out = teachcam(&["align", points.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("line 1"));
+}
+
+#[test]
+fn pivot_refuses_a_recording_that_does_not_turn() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("pivot.csv");
+    // The stroke above turns about a fixed axis only (its tilt varies about one axis): refused.
+    write_stroke(&trajectory, 1.0);
+    let out = teachcam(&["pivot", trajectory.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("turned too little"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn acceleration_limit_is_judged_when_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    let path = trajectory.to_str().unwrap();
+    let base = ["check", path, "--wobj", WOBJ, "--tcp", TCP];
+    let mut strict = base.to_vec();
+    strict.extend(["--max-acceleration-deg-s2", "1"]);
+    let out = teachcam(&strict);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stdout).contains("accelerates too hard"));
+    let mut loose = base.to_vec();
+    loose.extend(["--max-acceleration-deg-s2", "100000"]);
+    assert!(teachcam(&loose).status.success());
+}
+
+/// `--help` explains the robot commands with an example and the contract's flags.
+#[test]
+fn help_texts_explain_the_robot_commands() {
+    for (command, flags) in [
+        (
+            "check",
+            &["--robot", "--wobj", "--tcp", "--joints-out", "Example:"][..],
+        ),
+        (
+            "export",
+            &[
+                "rapid",
+                "krl",
+                "urscript",
+                "--force",
+                "--tolerance-mm",
+                "Example:",
+            ][..],
+        ),
+        ("align", &["x_wobj_mm", "Example:"][..]),
+        ("pivot", &["--min-rotation-deg", "Example:"][..]),
+    ] {
+        let out = teachcam(&[command, "--help"]);
+        assert!(out.status.success());
+        let help = text(&out.stdout);
+        for flag in flags {
+            assert!(
+                help.contains(flag),
+                "{command} --help lacks {flag}:\n{help}"
+            );
+        }
+    }
+}

@@ -1,0 +1,198 @@
+//! The user's path through files: `teachcam simulate`, then `teachcam track` on the PNG
+//! recording, compared with the simulator's `truth.csv`; and the inputs a user can get wrong.
+
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test fails loudly on a broken fixture"
+)]
+
+use std::path::Path;
+use std::process::Command;
+
+use teachcam::io::trajectory::read_trajectory;
+
+fn teachcam(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_teachcam"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn simulate(scenario: &str, out: &Path) {
+    let status = teachcam(&[
+        "simulate",
+        "--scenario",
+        scenario,
+        "--out",
+        out.to_str().unwrap(),
+        "--seed",
+        "4",
+    ]);
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+}
+
+fn track(rec: &Path, extra: &[&str]) -> std::process::Output {
+    let rig = rec.join("rig.json");
+    let tool = rec.join("tool.json");
+    let out = rec.join("raw.csv");
+    let mut args = vec![
+        "track",
+        rec.to_str().unwrap(),
+        "--rig",
+        rig.to_str().unwrap(),
+        "--tool",
+        tool.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    teachcam(&args)
+}
+
+/// Tip errors of every frame against the truth (`None` where the frame has no pose).
+fn tip_errors(rec: &Path) -> Vec<Option<f64>> {
+    let truth = read_trajectory(&rec.join("truth.csv")).unwrap();
+    let raw = read_trajectory(&rec.join("raw.csv")).unwrap();
+    truth
+        .samples
+        .iter()
+        .zip(&raw.samples)
+        .map(|(t, r)| Some((t.pose?.tip_in_world - r.pose?.tip_in_world).norm()))
+        .collect()
+}
+
+fn rms(errors: &[f64]) -> f64 {
+    (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt()
+}
+
+#[test]
+fn paper_and_occluded_recordings_are_tracked_within_a_tenth_of_a_millimetre() {
+    for (scenario, limit_mm) in [("paper", 0.10), ("occluded", 0.15)] {
+        let dir = tempfile::tempdir().unwrap();
+        simulate(scenario, dir.path());
+        let out = track(
+            dir.path(),
+            &[
+                "--diagnostics",
+                dir.path().join("diag.csv").to_str().unwrap(),
+            ],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let frames = read_trajectory(&dir.path().join("raw.csv")).unwrap().len();
+        assert_eq!(
+            frames,
+            read_trajectory(&dir.path().join("truth.csv"))
+                .unwrap()
+                .len(),
+            "one row per frame"
+        );
+        let errors: Vec<f64> = tip_errors(dir.path())
+            .into_iter()
+            .map(|e| e.expect("every frame has a pose"))
+            .collect();
+        let (rms, worst) = (rms(&errors), errors.iter().copied().fold(0.0, f64::max));
+        println!(
+            "{scenario}: {} frames, tip RMS {rms:.4} mm, worst {worst:.4} mm",
+            errors.len()
+        );
+        assert!(rms <= limit_mm, "{scenario}: tip RMS {rms} mm");
+        assert!(worst < 1.0, "{scenario}: a wrong pose ({worst} mm)");
+    }
+}
+
+#[test]
+fn bad_inputs_are_refused_with_the_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path();
+    simulate("static", rec);
+    // Keep only a few frames to go fast.
+    for camera in ["cam0", "cam1", "cam2"] {
+        for entry in std::fs::read_dir(rec.join(camera)).unwrap() {
+            let path = entry.unwrap().path();
+            if path.file_name().unwrap().to_str().unwrap() > "000004.png" {
+                std::fs::remove_file(path).unwrap();
+            }
+        }
+    }
+    assert!(track(rec, &[]).status.success());
+
+    // A tool with two markers.
+    std::fs::write(
+        rec.join("tool2.json"),
+        r#"{"name": "b", "marker_diameter_mm": 10, "markers": [[0,0,0],[50,0,0]], "tip": [0,0,0]}"#,
+    )
+    .unwrap();
+    let out = teachcam(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--rig",
+        rec.join("rig.json").to_str().unwrap(),
+        "--tool",
+        rec.join("tool2.json").to_str().unwrap(),
+        "-o",
+        rec.join("x.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("at least 3"));
+    assert!(!rec.join("x.csv").exists(), "no output written");
+
+    // The rig says another image size.
+    let rig = std::fs::read_to_string(rec.join("rig.json")).unwrap();
+    std::fs::write(rec.join("rig.json"), rig.replacen("1280", "1920", 1)).unwrap();
+    let out = track(rec, &[]);
+    assert_eq!(out.status.code(), Some(1));
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        message.contains("1280x1024") && message.contains("1920x1024") && message.contains("cam0"),
+        "{message}"
+    );
+    std::fs::write(rec.join("rig.json"), &rig).unwrap();
+
+    // A rig camera without a sub-folder.
+    std::fs::rename(rec.join("cam2"), rec.join("side")).unwrap();
+    let out = track(rec, &[]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("rig camera cam2 has no sub-folder"));
+    std::fs::rename(rec.join("side"), rec.join("cam2")).unwrap();
+
+    // Frames where nothing is visible stay as explicit gaps.
+    let black = image::GrayImage::new(1280, 1024);
+    for camera in ["cam0", "cam1", "cam2"] {
+        black.save(rec.join(camera).join("000002.png")).unwrap();
+    }
+    let out = track(
+        rec,
+        &["--diagnostics", rec.join("diag.csv").to_str().unwrap()],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let errors = tip_errors(rec);
+    assert_eq!(errors.len(), 5);
+    assert!(
+        errors[2].is_none()
+            && errors
+                .iter()
+                .enumerate()
+                .all(|(i, e)| i == 2 || e.is_some())
+    );
+    let diagnostics = std::fs::read_to_string(rec.join("diag.csv")).unwrap();
+    assert!(
+        diagnostics
+            .lines()
+            .nth(3)
+            .unwrap()
+            .starts_with("2,lost,0 markers identified"),
+        "{diagnostics}"
+    );
+}

@@ -1,0 +1,597 @@
+//! Check a path of robot targets on an arm before a program is written: reach, joint limits,
+//! joint speeds and accelerations at the recorded timing, configuration changes and the wrist
+//! singularity; with suggestions (slow down by a factor, move the work object).
+//!
+//! Model: every target has up to 16 joint solutions inside the limits ([`inverse_within_limits`]).
+//! One solution per frame is chosen for the whole path at once by dynamic programming
+//! (Viterbi): the cost of a step is `(max_i |Δq_i| / (v_max,i Δt))²` (the square of the fraction
+//! of the fastest axis's speed it needs), plus a penalty for changing the arm configuration
+//! (`cfx`), so the path keeps one configuration and never flips unless it must. Speeds are
+//! backward differences `(q_k − q_{k−1}) / (t_k − t_{k−1})`, accelerations their differences.
+
+use crate::geometry::{FrameIndex, Vec3};
+use crate::robot::kinematics::{
+    ArmConfiguration, ConfData, Elbow, IkSolution, Joints, RobotModel, Shoulder, confdata, inverse,
+    inverse_within_limits,
+};
+use crate::robot::{Cell, TcpTarget};
+
+/// Options of [`check_path`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CheckConfig {
+    /// Axis 5 angles closer to zero than this are near the wrist singularity, radians.
+    /// Default 5°: there, axes 4 and 6 turn by about `1 / sin q5` ≈ 11 times the TCP's
+    /// angular rate, which is where ABB's path planner starts to slow down.
+    pub wrist_singularity: f64,
+    /// Fraction of each axis's maximum speed a path may use. Default 1.0: the data sheet's
+    /// numbers; lower it to keep a margin for the controller's acceleration ramps.
+    pub speed_fraction: f64,
+    /// Maximum joint accelerations, rad/s², axis 1 to 6; `None` reports accelerations without
+    /// judging them. Default `None`: ABB publishes no joint acceleration limits (they depend on
+    /// the load and the pose), and its planner slows the path down rather than faulting.
+    pub max_acceleration: Option<[f64; 6]>,
+    /// The largest distance tried when looking for a work-object move that makes every
+    /// target reachable, millimetres. Default 600 mm, about the IRB 120's reach.
+    pub max_work_object_move: f64,
+}
+
+impl Default for CheckConfig {
+    fn default() -> Self {
+        Self {
+            wrist_singularity: 5f64.to_radians(),
+            speed_fraction: 1.0,
+            max_acceleration: None,
+            max_work_object_move: 600.0,
+        }
+    }
+}
+
+/// What is wrong (or worth knowing) at one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FrameIssue {
+    /// The wrist centre is beyond the arm's reach (or too close to its base).
+    OutOfReach,
+    /// The arm reaches the pose only with an axis outside its range.
+    OutsideLimits {
+        /// 0-based axis index (axis 1 is 0).
+        axis: usize,
+        /// Its angle in the solution closest to the limits, radians.
+        angle: f64,
+    },
+    /// An axis would move faster than allowed since the previous frame.
+    TooFast {
+        /// 0-based axis index.
+        axis: usize,
+        /// Its speed, rad/s (signed).
+        speed: f64,
+        /// The allowed speed, rad/s.
+        max_speed: f64,
+    },
+    /// An axis would accelerate harder than configured.
+    TooHighAcceleration {
+        /// 0-based axis index.
+        axis: usize,
+        /// Its acceleration, rad/s² (signed).
+        acceleration: f64,
+        /// The allowed acceleration, rad/s².
+        max_acceleration: f64,
+    },
+    /// The arm configuration (`cfx`) changes since the previous frame.
+    ConfigurationChange {
+        /// The previous frame's `cfx`.
+        from: i32,
+        /// This frame's `cfx`.
+        to: i32,
+    },
+    /// The target's time does not follow the previous target's: no speed can be checked.
+    TimeNotIncreasing {
+        /// This target's time, seconds.
+        time_s: f64,
+        /// The previous target's time, seconds.
+        previous_s: f64,
+    },
+    /// Axis 5 is near zero: the wrist is near its singularity (a warning, not a failure).
+    NearSingular {
+        /// Axis 5's angle, radians.
+        axis5: f64,
+    },
+}
+
+impl FrameIssue {
+    /// True when this issue stops the program on the robot; false for a warning.
+    #[must_use]
+    pub fn is_failure(&self) -> bool {
+        !matches!(self, Self::NearSingular { .. })
+    }
+}
+
+impl std::fmt::Display for FrameIssue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::OutOfReach => write!(f, "out of reach"),
+            Self::OutsideLimits { axis, angle } => write!(
+                f,
+                "axis {} outside its range ({:.1}°)",
+                axis + 1,
+                angle.to_degrees()
+            ),
+            Self::TooFast {
+                axis,
+                speed,
+                max_speed,
+            } => write!(
+                f,
+                "axis {} too fast ({:.0}°/s, limit {:.0}°/s)",
+                axis + 1,
+                speed.to_degrees(),
+                max_speed.to_degrees()
+            ),
+            Self::TooHighAcceleration {
+                axis,
+                acceleration,
+                max_acceleration,
+            } => write!(
+                f,
+                "axis {} accelerates too hard ({:.0}°/s², limit {:.0}°/s²)",
+                axis + 1,
+                acceleration.to_degrees(),
+                max_acceleration.to_degrees()
+            ),
+            Self::ConfigurationChange { from, to } => {
+                write!(f, "arm configuration changes (cfx {from} -> {to})")
+            }
+            Self::TimeNotIncreasing { time_s, previous_s } => write!(
+                f,
+                "time {time_s} s does not follow the previous target's {previous_s} s"
+            ),
+            Self::NearSingular { axis5 } => {
+                write!(
+                    f,
+                    "near the wrist singularity (axis 5 at {:.1}°)",
+                    axis5.to_degrees()
+                )
+            }
+        }
+    }
+}
+
+/// The check of one target.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameCheck {
+    /// The target checked.
+    pub target: TcpTarget,
+    /// The joint solution chosen along the path, `None` when there is none in the limits.
+    pub joints: Option<Joints>,
+    /// Its ABB configuration data.
+    pub confdata: Option<ConfData>,
+    /// Joint speeds since the previous target, rad/s (zero at the first).
+    pub joint_speed: [f64; 6],
+    /// Joint accelerations, rad/s² (zero at the first two).
+    pub joint_acceleration: [f64; 6],
+    /// What is wrong here.
+    pub issues: Vec<FrameIssue>,
+}
+
+impl FrameCheck {
+    /// True when nothing here stops the program.
+    #[must_use]
+    pub fn passes(&self) -> bool {
+        self.issues.iter().all(|i| !i.is_failure())
+    }
+}
+
+/// What would make a failing path run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Suggestion {
+    /// Play the trajectory this many times slower.
+    SlowDown {
+        /// Time scale, > 1.
+        factor: f64,
+    },
+    /// Move the work object (add this to `--wobj`'s translation), verified to make every
+    /// target reachable within the joint limits.
+    MoveWorkObject {
+        /// The displacement in the robot's base frame, millimetres.
+        by_in_base: Vec3,
+    },
+}
+
+impl std::fmt::Display for Suggestion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::SlowDown { factor } => {
+                write!(f, "slow the trajectory down by a factor of {factor:.2}")
+            }
+            Self::MoveWorkObject { by_in_base } => write!(
+                f,
+                "move the work object by ({:.0}, {:.0}, {:.0}) mm in the robot's base frame",
+                by_in_base.x, by_in_base.y, by_in_base.z
+            ),
+        }
+    }
+}
+
+/// The check of a whole path.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckReport {
+    /// One per target, in order.
+    pub frames: Vec<FrameCheck>,
+    /// The largest `|speed| / allowed speed` over all axes and frames.
+    pub peak_speed_ratio: f64,
+    /// The largest `|acceleration| / allowed acceleration`, when limits were given.
+    pub peak_acceleration_ratio: Option<f64>,
+    /// The largest `|speed|` of each axis over the path, rad/s.
+    pub peak_joint_speed: [f64; 6],
+    /// The largest `|acceleration|` of each axis over the path, rad/s².
+    pub peak_joint_acceleration: [f64; 6],
+    /// What would make it run.
+    pub suggestions: Vec<Suggestion>,
+}
+
+impl CheckReport {
+    /// True when the robot can run the whole path.
+    #[must_use]
+    pub fn passes(&self) -> bool {
+        self.frames.iter().all(FrameCheck::passes)
+    }
+
+    /// The frames that fail.
+    pub fn failing(&self) -> impl Iterator<Item = &FrameCheck> {
+        self.frames.iter().filter(|f| !f.passes())
+    }
+
+    /// Frames with no joint solution.
+    #[must_use]
+    pub fn unreachable_count(&self) -> usize {
+        self.frames.iter().filter(|f| f.joints.is_none()).count()
+    }
+
+    /// Frames near the wrist singularity.
+    #[must_use]
+    pub fn near_singular_count(&self) -> usize {
+        self.frames
+            .iter()
+            .filter(|f| {
+                f.issues
+                    .iter()
+                    .any(|i| matches!(i, FrameIssue::NearSingular { .. }))
+            })
+            .collect::<Vec<_>>()
+            .len()
+    }
+
+    /// The frame index of each target with its joints, for `--joints-out`.
+    pub fn joints(&self) -> impl Iterator<Item = (FrameIndex, Option<Joints>)> + '_ {
+        self.frames.iter().map(|f| (f.target.frame, f.joints))
+    }
+}
+
+/// Penalty added to a step's cost when the arm configuration changes: larger than any
+/// feasible step (whose cost is at most 1 at full speed), so a flip is taken only when no
+/// path in one configuration exists.
+const CONFIGURATION_CHANGE_COST: f64 = 1e3;
+
+/// Checks a path of targets on a robot in a cell.
+#[must_use]
+pub fn check_path(
+    model: &RobotModel,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+) -> CheckReport {
+    let candidates: Vec<Vec<IkSolution>> = targets
+        .iter()
+        .map(|t| inverse_within_limits(model, &cell.base_from_flange(&t.wobj_from_tcp)))
+        .collect();
+    let chosen = choose_along_path(model, targets, &candidates, config);
+    let mut frames = Vec::with_capacity(targets.len());
+    let mut previous: Option<(usize, IkSolution)> = None;
+    let mut previous_speed: Option<(usize, [f64; 6])> = None;
+    let mut peak_speed_ratio: f64 = 0.0;
+    let mut peak_acceleration_ratio: f64 = 0.0;
+    for (k, target) in targets.iter().enumerate() {
+        let mut issues = Vec::new();
+        let mut joint_speed = [0.0; 6];
+        let mut joint_acceleration = [0.0; 6];
+        let Some(solution) = chosen[k] else {
+            issues.push(reach_issue(model, cell, target));
+            frames.push(FrameCheck {
+                target: *target,
+                joints: None,
+                confdata: None,
+                joint_speed,
+                joint_acceleration,
+                issues,
+            });
+            previous = None;
+            previous_speed = None;
+            continue;
+        };
+        let conf = confdata(&solution.joints, &solution.configuration);
+        if let Some((p, before)) = previous {
+            let dt = target.time_s - targets[p].time_s;
+            if dt.is_nan() || dt <= 0.0 {
+                issues.push(FrameIssue::TimeNotIncreasing {
+                    time_s: target.time_s,
+                    previous_s: targets[p].time_s,
+                });
+            }
+            let dt = dt.max(1e-9);
+            for (axis, speed) in joint_speed.iter_mut().enumerate() {
+                *speed = (solution.joints.0[axis] - before.joints.0[axis]) / dt;
+                let max_speed = model.limits[axis].max_speed * config.speed_fraction;
+                let ratio = speed.abs() / max_speed;
+                peak_speed_ratio = peak_speed_ratio.max(ratio);
+                if ratio > 1.0 {
+                    issues.push(FrameIssue::TooFast {
+                        axis,
+                        speed: *speed,
+                        max_speed,
+                    });
+                }
+            }
+            let before_conf = confdata(&before.joints, &before.configuration);
+            if before_conf.cfx != conf.cfx {
+                issues.push(FrameIssue::ConfigurationChange {
+                    from: before_conf.cfx,
+                    to: conf.cfx,
+                });
+            }
+            if let Some((pp, speed_before)) = previous_speed {
+                let dt2 = 0.5 * (target.time_s - targets[pp].time_s);
+                for (axis, acceleration) in joint_acceleration.iter_mut().enumerate() {
+                    *acceleration = (joint_speed[axis] - speed_before[axis]) / dt2;
+                }
+                if let Some(limits) = config.max_acceleration {
+                    for (axis, limit) in limits.iter().enumerate() {
+                        let ratio = joint_acceleration[axis].abs() / limit;
+                        peak_acceleration_ratio = peak_acceleration_ratio.max(ratio);
+                        if ratio > 1.0 {
+                            issues.push(FrameIssue::TooHighAcceleration {
+                                axis,
+                                acceleration: joint_acceleration[axis],
+                                max_acceleration: *limit,
+                            });
+                        }
+                    }
+                }
+            }
+            previous_speed = Some((p, joint_speed));
+        }
+        if solution.joints.0[4].abs() < config.wrist_singularity {
+            issues.push(FrameIssue::NearSingular {
+                axis5: solution.joints.0[4],
+            });
+        }
+        frames.push(FrameCheck {
+            target: *target,
+            joints: Some(solution.joints),
+            confdata: Some(conf),
+            joint_speed,
+            joint_acceleration,
+            issues,
+        });
+        previous = Some((k, solution));
+    }
+    let mut peak_joint_speed = [0.0f64; 6];
+    let mut peak_joint_acceleration = [0.0f64; 6];
+    for f in &frames {
+        for axis in 0..6 {
+            peak_joint_speed[axis] = peak_joint_speed[axis].max(f.joint_speed[axis].abs());
+            peak_joint_acceleration[axis] =
+                peak_joint_acceleration[axis].max(f.joint_acceleration[axis].abs());
+        }
+    }
+    let mut report = CheckReport {
+        frames,
+        peak_speed_ratio,
+        peak_acceleration_ratio: config.max_acceleration.map(|_| peak_acceleration_ratio),
+        peak_joint_speed,
+        peak_joint_acceleration,
+        suggestions: Vec::new(),
+    };
+    report.suggestions = suggestions(model, cell, targets, &report, config);
+    report
+}
+
+/// Why a target has no solution: out of reach, or the limit broken by the least bad solution.
+fn reach_issue(model: &RobotModel, cell: &Cell, target: &TcpTarget) -> FrameIssue {
+    let all = inverse(
+        &model.geometry,
+        &cell.base_from_flange(&target.wobj_from_tcp),
+    );
+    let mut worst: Option<(f64, usize, f64)> = None;
+    for solution in &all {
+        // The solution's largest excess over a limit, and where.
+        let mut excess = (0.0, 0, 0.0);
+        for axis in 0..6 {
+            let limit = &model.limits[axis];
+            let angle = solution.joints.0[axis];
+            let over = (limit.min - angle).max(angle - limit.max);
+            if over > excess.0 {
+                excess = (over, axis, angle);
+            }
+        }
+        if worst.is_none_or(|w| excess.0 < w.0) {
+            worst = Some(excess);
+        }
+    }
+    match worst {
+        None => FrameIssue::OutOfReach,
+        Some((_, axis, angle)) => FrameIssue::OutsideLimits { axis, angle },
+    }
+}
+
+/// A preference among solutions at the first frame of a run: ABB's usual configuration
+/// (wrist in front of axis 1 and of the lower arm, axis 5 positive), then angles near the
+/// middle of their ranges. Small beside any step cost.
+fn start_cost(model: &RobotModel, solution: &IkSolution) -> f64 {
+    let c = &solution.configuration;
+    let configuration = f64::from(u8::from(c.shoulder == Shoulder::Back))
+        + f64::from(u8::from(c.elbow == Elbow::Behind))
+        + f64::from(u8::from(c.wrist_flipped));
+    let centred: f64 = (0..6)
+        .map(|i| {
+            let l = &model.limits[i];
+            let mid = 0.5 * (l.min + l.max);
+            ((solution.joints.0[i] - mid) / (l.max - l.min)).powi(2)
+        })
+        .sum();
+    1e-3 * configuration + 1e-4 * centred
+}
+
+fn step_cost(
+    model: &RobotModel,
+    from: &IkSolution,
+    to: &IkSolution,
+    dt: f64,
+    config: &CheckConfig,
+) -> f64 {
+    let mut ratio: f64 = 0.0;
+    for axis in 0..6 {
+        // A non-increasing time (reported by the check) costs as a step in a nanosecond.
+        let max_step = model.limits[axis].max_speed * config.speed_fraction * dt.max(1e-9);
+        ratio = ratio.max((to.joints.0[axis] - from.joints.0[axis]).abs() / max_step);
+    }
+    let flip = if same_configuration(&from.configuration, &to.configuration) {
+        0.0
+    } else {
+        CONFIGURATION_CHANGE_COST
+    };
+    ratio * ratio + flip
+}
+
+fn same_configuration(a: &ArmConfiguration, b: &ArmConfiguration) -> bool {
+    a == b
+}
+
+/// One solution per target (or `None`), minimising the summed step costs over each run of
+/// consecutive targets that have solutions.
+fn choose_along_path(
+    model: &RobotModel,
+    targets: &[TcpTarget],
+    candidates: &[Vec<IkSolution>],
+    config: &CheckConfig,
+) -> Vec<Option<IkSolution>> {
+    let mut chosen = vec![None; targets.len()];
+    let mut start = 0;
+    while start < targets.len() {
+        if candidates[start].is_empty() {
+            start += 1;
+            continue;
+        }
+        let mut end = start + 1;
+        while end < targets.len() && !candidates[end].is_empty() {
+            end += 1;
+        }
+        // Viterbi over start..end.
+        let mut cost: Vec<f64> = candidates[start]
+            .iter()
+            .map(|s| start_cost(model, s))
+            .collect();
+        let mut back: Vec<Vec<usize>> = Vec::with_capacity(end - start);
+        back.push(Vec::new());
+        for k in start + 1..end {
+            let dt = targets[k].time_s - targets[k - 1].time_s;
+            let mut next_cost = Vec::with_capacity(candidates[k].len());
+            let mut next_back = Vec::with_capacity(candidates[k].len());
+            for to in &candidates[k] {
+                let mut best = (f64::INFINITY, 0);
+                for (i, from) in candidates[k - 1].iter().enumerate() {
+                    let c = cost[i] + step_cost(model, from, to, dt, config);
+                    if c < best.0 {
+                        best = (c, i);
+                    }
+                }
+                next_cost.push(best.0);
+                next_back.push(best.1);
+            }
+            cost = next_cost;
+            back.push(next_back);
+        }
+        let mut index = cost
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map_or(0, |(i, _)| i);
+        for k in (start..end).rev() {
+            chosen[k] = candidates[k].get(index).copied();
+            if k > start {
+                index = back[k - start][index];
+            }
+        }
+        start = end;
+    }
+    chosen
+}
+
+fn suggestions(
+    model: &RobotModel,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    report: &CheckReport,
+    config: &CheckConfig,
+) -> Vec<Suggestion> {
+    let mut out = Vec::new();
+    if report.unreachable_count() > 0 {
+        if let Some(by_in_base) = work_object_move(model, cell, targets, config) {
+            out.push(Suggestion::MoveWorkObject { by_in_base });
+        }
+    } else {
+        let acceleration = report.peak_acceleration_ratio.unwrap_or(0.0).sqrt();
+        let factor = report.peak_speed_ratio.max(acceleration);
+        if factor > 1.0 {
+            // Round up to a hundredth so that the suggested factor itself passes.
+            out.push(Suggestion::SlowDown {
+                factor: (factor * 100.0).ceil() / 100.0,
+            });
+        }
+    }
+    out
+}
+
+/// A translation of the work object, toward the arm's comfortable zone, after which every
+/// target has a solution within the limits; tried in 10 mm steps along the direction from the
+/// targets' centroid to a point 60 % of the reach in front of axis 2 at its height.
+fn work_object_move(
+    model: &RobotModel,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+) -> Option<Vec3> {
+    if targets.is_empty() {
+        return None;
+    }
+    let centroid = targets
+        .iter()
+        .map(|t| cell.base_from_flange(&t.wobj_from_tcp).translation.vector)
+        .sum::<Vec3>()
+        / targets.len() as f64;
+    let g = &model.geometry;
+    let comfortable = Vec3::new(
+        g.shoulder_offset + 0.6 * model.max_wrist_reach(),
+        0.0,
+        g.shoulder_height,
+    );
+    let towards = comfortable - centroid;
+    let distance = towards.norm();
+    if distance < 1e-9 {
+        return None;
+    }
+    let direction = towards / distance;
+    let step = 10.0;
+    let mut moved = step;
+    while moved <= config.max_work_object_move {
+        let by = direction * moved;
+        let mut moved_cell = *cell;
+        moved_cell.base_from_wobj.translation.vector += by;
+        let all_reachable = targets.iter().all(|t| {
+            !inverse_within_limits(model, &moved_cell.base_from_flange(&t.wobj_from_tcp)).is_empty()
+        });
+        if all_reachable {
+            return Some(by);
+        }
+        moved += step;
+    }
+    None
+}
