@@ -393,3 +393,31 @@ fn noise_free_intrinsics_are_exact() {
     assert!((c.camera.intrinsics.cy - camera.intrinsics.cy).abs() < 1e-4);
     assert!((c.camera.distortion.k1 - camera.distortion.k1).abs() < 1e-6);
 }
+
+#[test]
+fn duplicate_and_unknown_cameras_are_named() {
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let truth = rig(3);
+    let boards = placements(&mut rng, 6);
+    let mut observations = observe(&truth, &boards, &mut rng);
+    let corners = BOARD.corners_in_board();
+    let world = WorldFrame::Board("world".into());
+    let config = RigConfig::default();
+    let mut twice = observations.clone();
+    twice.push(observations[0].clone());
+    assert_eq!(
+        calibrate_rig(&corners, &truth, &twice, &world, &config).err(),
+        Some(CalibError::DuplicateObservation {
+            camera: truth[observations[0].camera.0].name.clone(),
+            view: observations[0].view.clone(),
+        })
+    );
+    observations[0].camera = CameraId(7);
+    assert_eq!(
+        calibrate_rig(&corners, &truth, &observations, &world, &config).err(),
+        Some(CalibError::UnknownCamera {
+            camera: "camera 7".into(),
+            view: observations[0].view.clone(),
+        })
+    );
+}

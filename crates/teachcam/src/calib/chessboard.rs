@@ -692,58 +692,32 @@ fn square_brightness(grid: &[Vec<Pixel>], plane: &Plane, r: usize, c: usize) -> 
     plane.bilinear(x, y)
 }
 
-/// Signed mean contrast of the squares whose index sum is even against their neighbours:
-/// negative when those squares are the dark ones.
-fn parity_contrast(grid: &[Vec<Pixel>], plane: &Plane) -> (f64, usize, usize) {
+/// Brightness differences between neighbouring squares of a corner grid, each signed so it is
+/// positive when the square whose index sum is even is the brighter one.
+fn neighbour_differences(grid: &[Vec<Pixel>], plane: &Plane) -> Vec<f64> {
     let rows = grid.len() - 1;
     let cols = grid[0].len() - 1;
-    let mut agree = 0;
-    let mut pairs = 0;
-    let mut contrast = 0.0;
+    let mut differences = Vec::with_capacity(2 * rows * cols);
     for r in 0..rows {
         for c in 0..cols {
             let here = square_brightness(grid, plane, r, c);
             let sign = if (r + c) % 2 == 0 { 1.0 } else { -1.0 };
             for (rr, cc) in [(r + 1, c), (r, c + 1)] {
-                if rr >= rows || cc >= cols {
-                    continue;
-                }
-                let diff = sign * (here - square_brightness(grid, plane, rr, cc));
-                contrast += diff;
-                pairs += 1;
-                if diff != 0.0 {
-                    agree += 1;
+                if rr < rows && cc < cols {
+                    differences.push(sign * (here - square_brightness(grid, plane, rr, cc)));
                 }
             }
         }
     }
-    (contrast / pairs.max(1) as f64, agree, pairs)
+    differences
 }
 
 /// True when neighbouring squares of the grid differ in brightness with one consistent sign
 /// (uneven light shifts both squares of a pair alike and keeps the sign).
 fn alternates(grid: &[Vec<Pixel>], plane: &Plane) -> bool {
-    let rows = grid.len() - 1;
-    let cols = grid[0].len() - 1;
-    let mut positive = 0usize;
-    let mut negative = 0usize;
-    for r in 0..rows {
-        for c in 0..cols {
-            let here = square_brightness(grid, plane, r, c);
-            let sign = if (r + c) % 2 == 0 { 1.0 } else { -1.0 };
-            for (rr, cc) in [(r + 1, c), (r, c + 1)] {
-                if rr >= rows || cc >= cols {
-                    continue;
-                }
-                let diff = sign * (here - square_brightness(grid, plane, rr, cc));
-                if diff > 0.0 {
-                    positive += 1;
-                } else if diff < 0.0 {
-                    negative += 1;
-                }
-            }
-        }
-    }
+    let differences = neighbour_differences(grid, plane);
+    let positive = differences.iter().filter(|d| **d > 0.0).count();
+    let negative = differences.iter().filter(|d| **d < 0.0).count();
     let pairs = positive + negative;
     // One square pair in ten may disagree (glare, a pen mark); a clutter lattice has no rule.
     pairs > 0 && positive.max(negative) * 10 >= pairs * 9
@@ -761,7 +735,7 @@ fn opencv_order(mut grid: Vec<Vec<Pixel>>, plane: &Plane) -> Vec<Pixel> {
             row.reverse();
         }
     }
-    let (contrast, _, _) = parity_contrast(&grid, plane);
+    let contrast: f64 = neighbour_differences(&grid, plane).iter().sum();
     if contrast > 0.0 {
         // Square (0, 0) is bright: turn the board half a turn (keeps the handedness).
         grid.reverse();
