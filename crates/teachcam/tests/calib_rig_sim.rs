@@ -421,3 +421,26 @@ fn duplicate_and_unknown_cameras_are_named() {
         })
     );
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(32))]
+    /// Corners that are no board's (random pixels): refused, or a camera with finite,
+    /// plausible numbers; never NaN.
+    #[test]
+    fn random_corners_never_give_nan(seed in 0u64..1_000_000) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let views: Vec<BoardView> = (0..4)
+            .map(|k| BoardView {
+                name: format!("v{k}"),
+                corners: (0..BOARD.corner_count())
+                    .map(|_| Pixel::new(rng.random_range(0.0..1280.0), rng.random_range(0.0..1024.0)))
+                    .collect(),
+            })
+            .collect();
+        if let Ok(c) = calibrate_intrinsics(&BOARD.corners_in_board(), &views, SIZE, &IntrinsicsConfig::default()) {
+            let i = c.camera.intrinsics;
+            proptest::prop_assert!([i.fx, i.fy, i.cx, i.cy, c.rms_px].iter().all(|v| v.is_finite()));
+            proptest::prop_assert!(i.fx > 0.0 && i.fy > 0.0);
+        }
+    }
+}

@@ -427,6 +427,9 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
         );
     }
     println!("rms {:.4} px", result.rms_px);
+    if !result.converged {
+        println!("warning: the bundle adjustment stopped at its iteration limit, not at a minimum");
+    }
     write_rig(&args.output, &result.rig)?;
     Ok(())
 }

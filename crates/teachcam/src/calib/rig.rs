@@ -92,6 +92,8 @@ pub struct RigCalibration {
     pub world_from_board: BTreeMap<String, Pose>,
     /// Optimiser iterations of the bundle adjustment.
     pub iterations: usize,
+    /// False when the adjustment stopped at its iteration limit rather than at a minimum.
+    pub converged: bool,
 }
 
 /// Single-camera pose problem (PnP): the board pose only, the camera fixed.
@@ -528,5 +530,6 @@ pub fn calibrate_rig(
         rms_px,
         world_from_board: view_names.into_iter().zip(state.world_from_board).collect(),
         iterations: report.iterations,
+        converged: report.converged,
     })
 }
