@@ -12,9 +12,10 @@ use teachcam::vendor;
 
 use crate::{DataRejected, Rejected as _};
 
-/// Turn another tracker's markers (Vicon, Qualisys, OptiTrack, NDI) into the trajectory of a
-/// rigid tool: pick the tool's markers by label or by the distance-matrix identification of a
-/// `tool.json`, register the tool in every frame, and write the trajectory CSV (`teachcam
+/// Turn another tracker's markers (Vicon, Qualisys, OptiTrack, NDI) into a tool trajectory.
+///
+/// Picks the tool's markers by label or by the distance-matrix identification of a
+/// `tool.json`, registers the tool in every frame, and writes the trajectory CSV (`teachcam
 /// smooth` and `teachcam export` take it from there).
 ///
 /// With `--markers` and no `--tool`, the tool is built from the data itself (mean shape over
