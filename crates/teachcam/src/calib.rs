@@ -123,6 +123,22 @@ pub enum CalibError {
         /// The camera's name.
         camera: String,
     },
+    /// An observation names a camera the rig does not have.
+    #[error("{camera} (named by {view}) is not among the cameras")]
+    UnknownCamera {
+        /// The camera id.
+        camera: String,
+        /// Where it was named.
+        view: String,
+    },
+    /// One camera saw one board placement twice.
+    #[error("camera {camera} has two observations of view {view}")]
+    DuplicateObservation {
+        /// The camera's name.
+        camera: String,
+        /// The view.
+        view: String,
+    },
     /// The view chosen to set the world frame is not among the views.
     #[error("world view {view} is not among the views")]
     UnknownWorldView {

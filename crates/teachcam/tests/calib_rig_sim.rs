@@ -393,3 +393,54 @@ fn noise_free_intrinsics_are_exact() {
     assert!((c.camera.intrinsics.cy - camera.intrinsics.cy).abs() < 1e-4);
     assert!((c.camera.distortion.k1 - camera.distortion.k1).abs() < 1e-6);
 }
+
+#[test]
+fn duplicate_and_unknown_cameras_are_named() {
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let truth = rig(3);
+    let boards = placements(&mut rng, 6);
+    let mut observations = observe(&truth, &boards, &mut rng);
+    let corners = BOARD.corners_in_board();
+    let world = WorldFrame::Board("world".into());
+    let config = RigConfig::default();
+    let mut twice = observations.clone();
+    twice.push(observations[0].clone());
+    assert_eq!(
+        calibrate_rig(&corners, &truth, &twice, &world, &config).err(),
+        Some(CalibError::DuplicateObservation {
+            camera: truth[observations[0].camera.0].name.clone(),
+            view: observations[0].view.clone(),
+        })
+    );
+    observations[0].camera = CameraId(7);
+    assert_eq!(
+        calibrate_rig(&corners, &truth, &observations, &world, &config).err(),
+        Some(CalibError::UnknownCamera {
+            camera: "camera 7".into(),
+            view: observations[0].view.clone(),
+        })
+    );
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(32))]
+    /// Corners that are no board's (random pixels): refused, or a camera with finite,
+    /// plausible numbers; never NaN.
+    #[test]
+    fn random_corners_never_give_nan(seed in 0u64..1_000_000) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let views: Vec<BoardView> = (0..4)
+            .map(|k| BoardView {
+                name: format!("v{k}"),
+                corners: (0..BOARD.corner_count())
+                    .map(|_| Pixel::new(rng.random_range(0.0..1280.0), rng.random_range(0.0..1024.0)))
+                    .collect(),
+            })
+            .collect();
+        if let Ok(c) = calibrate_intrinsics(&BOARD.corners_in_board(), &views, SIZE, &IntrinsicsConfig::default()) {
+            let i = c.camera.intrinsics;
+            proptest::prop_assert!([i.fx, i.fy, i.cx, i.cy, c.rms_px].iter().all(|v| v.is_finite()));
+            proptest::prop_assert!(i.fx > 0.0 && i.fy > 0.0);
+        }
+    }
+}

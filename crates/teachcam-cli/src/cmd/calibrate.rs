@@ -28,9 +28,7 @@ pub struct Args {
 /// What to calibrate.
 #[derive(Debug, clap::Subcommand)]
 pub enum Calibrate {
-    /// One camera's intrinsics and distortion (Zhang + Levenberg–Marquardt).
     Intrinsics(IntrinsicsArgs),
-    /// All cameras of a rig in one world frame (+ bundle adjustment).
     Rig(RigArgs),
 }
 
@@ -68,8 +66,9 @@ pub enum CameraFormat {
     Ros,
 }
 
-/// One camera's intrinsics and distortion from chessboard photographs: corners found in each
-/// image (images without a complete board are named and skipped), Zhang's closed form, then
+/// One camera's intrinsics and distortion from chessboard photographs.
+///
+/// Corners are found in each image (images without a complete board are named and skipped), Zhang's closed form, then
 /// Levenberg–Marquardt over fx, fy, cx, cy, k1, k2, p1, p2, k3 and every board pose. Prints the
 /// RMS reprojection error per image and names outlier images.
 ///
@@ -101,7 +100,9 @@ pub struct IntrinsicsArgs {
     pub fix_aspect_ratio: bool,
 }
 
-/// All cameras of a rig in one world frame. `IMAGES` holds one sub-folder per camera, named as
+/// All cameras of a rig in one world frame, then a bundle adjustment.
+///
+/// `IMAGES` holds one sub-folder per camera, named as
 /// the camera; images with the same file stem in several sub-folders show the same board
 /// placement at the same instant. The world frame is the board of `--world` (lying on the work
 /// object: x along its rows of corners, y along its columns, z into the board, origin at its
@@ -426,6 +427,9 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
         );
     }
     println!("rms {:.4} px", result.rms_px);
+    if !result.converged {
+        println!("warning: the bundle adjustment stopped at its iteration limit, not at a minimum");
+    }
     write_rig(&args.output, &result.rig)?;
     Ok(())
 }

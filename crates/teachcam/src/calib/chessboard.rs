@@ -25,6 +25,10 @@ use crate::geometry::Pixel;
 
 use super::Chessboard;
 
+mod subpix;
+
+use subpix::refine_grid;
+
 /// Options of [`find_chessboard_corners`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct CornerConfig {
@@ -247,17 +251,30 @@ pub fn find_chessboard_corners(
     }
     let (cols, rows) = (board.inner_cols, board.inner_rows);
     let mut largest = 0;
-    // Seeds in order of response: a real board's corners are the strongest saddles.
-    for seed in 0..candidates.len().min(64) {
-        let Some(lattice) = grow_lattice(&candidates, seed, 3 * cols * rows, config) else {
-            continue;
-        };
-        largest = largest.max(lattice.len());
-        if lattice.len() < cols * rows {
-            continue;
-        }
-        if let Some(grid) = board_window(&lattice, &candidates, &smooth, cols, rows) {
-            return Ok(refine_grid(&raw, &grid, cols, config));
+    // First complete lattices only; then a lattice missing one corner (a finger over it, a
+    // glint), that corner inferred from its neighbours and kept only if a saddle is there.
+    for max_missing in [0, 1] {
+        // Seeds in order of response: a real board's corners are the strongest saddles.
+        for seed in 0..candidates.len().min(64) {
+            let Some(lattice) = grow_lattice(&candidates, seed, 3 * cols * rows, config) else {
+                continue;
+            };
+            largest = largest.max(lattice.len());
+            if lattice.len() + max_missing < cols * rows {
+                continue;
+            }
+            let Some((grid, inferred)) =
+                board_window(&lattice, &candidates, &smooth, cols, rows, max_missing)
+            else {
+                continue;
+            };
+            let refined = refine_grid(&raw, &grid, cols, config);
+            if inferred
+                .iter()
+                .all(|&k| confirms_inferred(&smooth, &grid, &refined, cols, k))
+            {
+                return Ok(refined);
+            }
         }
     }
     Err(ChessboardError::NotFound {
@@ -274,31 +291,44 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     let r = RING_RADIUS as usize;
     let mut response = vec![0.0f32; w * h];
     let mut max_response = 0.0f32;
-    // Row slices per ring sample, so the inner loop indexes plain slices by x - r.
+    // Row by row, each term over the whole row at once (loops the compiler vectorises): ring
+    // sample k of pixel x is rows[k][x - r].
+    let n = w - 2 * r;
     let rows_of = |ring: &[(i32, i32); 16], y: usize| -> [&[f32]; 16] {
         std::array::from_fn(|k| {
             let (dx, dy) = ring[k];
             let start =
                 (y as i64 + i64::from(dy)) as usize * w + (r as i64 + i64::from(dx)) as usize;
-            &plane.data[start..]
+            &plane.data[start..start + n]
         })
     };
+    let mut local_mean = vec![0.0f32; n];
+    let mut best = vec![0.0f32; n];
+    let mut value = vec![0.0f32; n];
     for y in r..h - r {
-        let big = rows_of(&RING, y);
-        let small = rows_of(&SMALL_RING, y);
-        let above = &plane.data[(y - 1) * w..y * w];
-        let here = &plane.data[y * w..(y + 1) * w];
-        let below = &plane.data[(y + 1) * w..(y + 2) * w];
-        for x in r..w - r {
-            let local_mean = (here[x] + here[x - 1] + here[x + 1] + above[x] + below[x]) / 5.0;
-            // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
-            let ring_big: [f32; 16] = std::array::from_fn(|k| big[k][x - r]);
-            let ring_small: [f32; 16] = std::array::from_fn(|k| small[k][x - r]);
-            let value =
-                chess_response(&ring_big, local_mean).max(chess_response(&ring_small, local_mean));
-            if value > 0.0 {
-                response[y * w + x] = value;
-                max_response = max_response.max(value);
+        let above = &plane.data[(y - 1) * w + r..(y - 1) * w + r + n];
+        let here = &plane.data[y * w + r - 1..y * w + r + n + 1];
+        let below = &plane.data[(y + 1) * w + r..(y + 1) * w + r + n];
+        for x in 0..n {
+            local_mean[x] = (here[x + 1] + here[x] + here[x + 2] + above[x] + below[x]) / 5.0;
+        }
+        // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
+        for (ring, first) in [(&RING, true), (&SMALL_RING, false)] {
+            let a = rows_of(ring, y);
+            chess_row(&a, &local_mean, &mut value);
+            if first {
+                best.copy_from_slice(&value);
+            } else {
+                for (b, v) in best.iter_mut().zip(&value) {
+                    *b = b.max(*v);
+                }
+            }
+        }
+        let out = &mut response[y * w + r..y * w + r + n];
+        for (o, v) in out.iter_mut().zip(&best) {
+            if *v > 0.0 {
+                *o = *v;
+                max_response = max_response.max(*v);
             }
         }
     }
@@ -349,19 +379,34 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     candidates
 }
 
-/// ChESS response of a 16-sample ring around a pixel whose 5-pixel cross averages
-/// `local_mean`.
-fn chess_response(ring: &[f32; 16], local_mean: f32) -> f32 {
-    let mut sum_response = 0.0;
-    for n in 0..4 {
-        sum_response += (ring[n] + ring[n + 8] - ring[n + 4] - ring[n + 12]).abs();
+/// ChESS responses of one row: `out[x]` for the ring whose sample `k` is `ring[k][x]`, around
+/// pixels whose 5-pixel cross averages `local_mean[x]`:
+/// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}| - 16 |mean(a) - local|`.
+fn chess_row(ring: &[&[f32]; 16], local_mean: &[f32], out: &mut [f32]) {
+    let len = out.len();
+    let mut ring_sum = vec![0.0f32; len];
+    out.fill(0.0);
+    for k in 0..4 {
+        let (a, b, c, d) = (
+            &ring[k][..len],
+            &ring[k + 8][..len],
+            &ring[k + 4][..len],
+            &ring[k + 12][..len],
+        );
+        for x in 0..len {
+            out[x] += (a[x] + b[x] - c[x] - d[x]).abs();
+        }
     }
-    let mut diff_response = 0.0;
-    for n in 0..8 {
-        diff_response += (ring[n] - ring[n + 8]).abs();
+    for k in 0..8 {
+        let (a, b) = (&ring[k][..len], &ring[k + 8][..len]);
+        for x in 0..len {
+            out[x] -= (a[x] - b[x]).abs();
+            ring_sum[x] += a[x] + b[x];
+        }
     }
-    let ring_mean = ring.iter().sum::<f32>() / 16.0;
-    sum_response - diff_response - 16.0 * (ring_mean - local_mean).abs()
+    for x in 0..len {
+        out[x] -= 16.0 * (ring_sum[x] / 16.0 - local_mean[x]).abs();
+    }
 }
 
 fn distance2(a: &Candidate, bx: f64, by: f64) -> f64 {
@@ -479,44 +524,46 @@ fn grow_lattice(
     Some(lattice)
 }
 
-/// The board inside a grown lattice: a fully populated `cols x rows` window (either way
-/// round) whose squares alternate in brightness, ordered as OpenCV orders it.
+/// The board inside a grown lattice: a `cols x rows` window (either way round) with at most
+/// `max_missing` corners absent (predicted from their neighbours), whose squares alternate in
+/// brightness, ordered as OpenCV orders it; with the indices of the predicted corners.
 fn board_window(
     lattice: &Lattice,
     candidates: &[Candidate],
     plane: &Plane,
     cols: usize,
     rows: usize,
-) -> Option<Vec<Pixel>> {
+    max_missing: usize,
+) -> Option<(Vec<Pixel>, Vec<usize>)> {
     let i_min = lattice.keys().map(|k| k.0).min()?;
     let i_max = lattice.keys().map(|k| k.0).max()?;
     let j_min = lattice.keys().map(|k| k.1).min()?;
     let j_max = lattice.keys().map(|k| k.1).max()?;
-    let mut found: Option<Vec<Vec<Pixel>>> = None;
+    let mut found: Option<(Vec<Vec<Pixel>>, Vec<Pixel>)> = None;
     for (span_i, span_j) in [(cols, rows), (rows, cols)] {
         let (span_i, span_j) = (span_i as i32, span_j as i32);
         for i0 in i_min..=i_max - span_i + 1 {
             for j0 in j_min..=j_max - span_j + 1 {
                 // grid[b][a]: a along i, b along j.
-                let mut grid = Vec::with_capacity(span_j as usize);
-                let mut complete = true;
-                for b in 0..span_j {
-                    let mut row = Vec::with_capacity(span_i as usize);
-                    for a in 0..span_i {
-                        match lattice.get(&(i0 + a, j0 + b)) {
-                            Some(&c) => row.push(Pixel::new(candidates[c].x, candidates[c].y)),
-                            None => {
-                                complete = false;
-                                break;
-                            }
-                        }
-                    }
-                    if !complete {
-                        break;
-                    }
-                    grid.push(row);
+                let sparse: Vec<Vec<Option<Pixel>>> = (0..span_j)
+                    .map(|b| {
+                        (0..span_i)
+                            .map(|a| {
+                                lattice
+                                    .get(&(i0 + a, j0 + b))
+                                    .map(|&c| Pixel::new(candidates[c].x, candidates[c].y))
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let missing = sparse.iter().flatten().filter(|p| p.is_none()).count();
+                if missing > max_missing {
+                    continue;
                 }
-                if !complete || !alternates(&grid, plane) {
+                let Some((grid, predicted)) = fill_missing(&sparse) else {
+                    continue;
+                };
+                if !alternates(&grid, plane) {
                     continue;
                 }
                 let grid = if span_i as usize == cols {
@@ -528,14 +575,106 @@ fn board_window(
                     // Two boards or a lattice of clutter: refuse rather than guess.
                     return None;
                 }
-                found = Some(grid);
+                found = Some((grid, predicted));
             }
         }
         if cols == rows {
             break;
         }
     }
-    found.map(|grid| opencv_order(grid, plane))
+    let (grid, predicted) = found?;
+    let ordered = opencv_order(grid, plane);
+    let inferred = ordered
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| predicted.contains(p))
+        .map(|(k, _)| k)
+        .collect();
+    Some((ordered, inferred))
+}
+
+/// Fills absent corners by linear prediction from two neighbours on a line (the midpoint of
+/// a pair around it, or the extrapolation of two on one side); `None` when one cannot be.
+fn fill_missing(sparse: &[Vec<Option<Pixel>>]) -> Option<(Vec<Vec<Pixel>>, Vec<Pixel>)> {
+    let rows = sparse.len() as i64;
+    let cols = sparse.first().map_or(0, Vec::len) as i64;
+    let at = |r: i64, c: i64| -> Option<Pixel> {
+        if (0..rows).contains(&r) && (0..cols).contains(&c) {
+            sparse[r as usize][c as usize]
+        } else {
+            None
+        }
+    };
+    let mut predicted = Vec::new();
+    let mut grid = Vec::with_capacity(sparse.len());
+    for r in 0..rows {
+        let mut row = Vec::with_capacity(cols as usize);
+        for c in 0..cols {
+            if let Some(p) = at(r, c) {
+                row.push(p);
+                continue;
+            }
+            let mut guess = None;
+            for (dr, dc) in [(0, 1), (1, 0)] {
+                if let (Some(a), Some(b)) = (at(r - dr, c - dc), at(r + dr, c + dc)) {
+                    guess = Some(Pixel::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y)));
+                    break;
+                }
+            }
+            if guess.is_none() {
+                for (dr, dc) in [(0, 1), (0, -1), (1, 0), (-1, 0)] {
+                    if let (Some(a), Some(b)) = (at(r + dr, c + dc), at(r + 2 * dr, c + 2 * dc)) {
+                        guess = Some(Pixel::new(2.0 * a.x - b.x, 2.0 * a.y - b.y));
+                        break;
+                    }
+                }
+            }
+            let guess = guess?;
+            predicted.push(guess);
+            row.push(guess);
+        }
+        grid.push(row);
+    }
+    Some((grid, predicted))
+}
+
+/// An inferred corner stands when refinement moved it less than a quarter of a square from
+/// its prediction and settled on a corner as well defined as its neighbours: a structure
+/// tensor with two strong directions (`λmin / λmax ≥ 0.2`), and `λmin` at least a fifth of
+/// the neighbours' median (not a flat patch, not an edge). A ChESS test would refuse a corner
+/// with a finger over one quadrant; the gradients of the other three still pin it.
+fn confirms_inferred(
+    plane: &Plane,
+    predicted: &[Pixel],
+    refined: &[Pixel],
+    cols: usize,
+    k: usize,
+) -> bool {
+    let (r, c) = (k / cols, k % cols);
+    let rows = refined.len() / cols;
+    let neighbour = if c + 1 < cols { k + 1 } else { k - 1 };
+    let square = predicted[k].distance(&predicted[neighbour]);
+    let settled = refined[k];
+    if !(settled.is_finite() && predicted[k].distance(&settled) <= 0.25 * square) {
+        return false;
+    }
+    let half = ((square / 4.0).round() as usize).max(2);
+    let (lo, hi) = subpix::structure_eigenvalues(plane, settled, half);
+    let mut others: Vec<f64> = [
+        (r.wrapping_sub(1), c),
+        (r + 1, c),
+        (r, c.wrapping_sub(1)),
+        (r, c + 1),
+    ]
+    .iter()
+    .filter(|(rr, cc)| *rr < rows && *cc < cols)
+    .map(|(rr, cc)| subpix::structure_eigenvalues(plane, refined[rr * cols + cc], half).0)
+    .collect();
+    others.sort_by(f64::total_cmp);
+    let Some(&median) = others.get(others.len() / 2) else {
+        return false;
+    };
+    hi > 0.0 && lo >= 0.2 * hi && lo >= 0.2 * median
 }
 
 fn transpose(grid: &[Vec<Pixel>]) -> Vec<Vec<Pixel>> {
@@ -553,58 +692,32 @@ fn square_brightness(grid: &[Vec<Pixel>], plane: &Plane, r: usize, c: usize) -> 
     plane.bilinear(x, y)
 }
 
-/// Signed mean contrast of the squares whose index sum is even against their neighbours:
-/// negative when those squares are the dark ones.
-fn parity_contrast(grid: &[Vec<Pixel>], plane: &Plane) -> (f64, usize, usize) {
+/// Brightness differences between neighbouring squares of a corner grid, each signed so it is
+/// positive when the square whose index sum is even is the brighter one.
+fn neighbour_differences(grid: &[Vec<Pixel>], plane: &Plane) -> Vec<f64> {
     let rows = grid.len() - 1;
     let cols = grid[0].len() - 1;
-    let mut agree = 0;
-    let mut pairs = 0;
-    let mut contrast = 0.0;
+    let mut differences = Vec::with_capacity(2 * rows * cols);
     for r in 0..rows {
         for c in 0..cols {
             let here = square_brightness(grid, plane, r, c);
             let sign = if (r + c) % 2 == 0 { 1.0 } else { -1.0 };
             for (rr, cc) in [(r + 1, c), (r, c + 1)] {
-                if rr >= rows || cc >= cols {
-                    continue;
-                }
-                let diff = sign * (here - square_brightness(grid, plane, rr, cc));
-                contrast += diff;
-                pairs += 1;
-                if diff != 0.0 {
-                    agree += 1;
+                if rr < rows && cc < cols {
+                    differences.push(sign * (here - square_brightness(grid, plane, rr, cc)));
                 }
             }
         }
     }
-    (contrast / pairs.max(1) as f64, agree, pairs)
+    differences
 }
 
 /// True when neighbouring squares of the grid differ in brightness with one consistent sign
 /// (uneven light shifts both squares of a pair alike and keeps the sign).
 fn alternates(grid: &[Vec<Pixel>], plane: &Plane) -> bool {
-    let rows = grid.len() - 1;
-    let cols = grid[0].len() - 1;
-    let mut positive = 0usize;
-    let mut negative = 0usize;
-    for r in 0..rows {
-        for c in 0..cols {
-            let here = square_brightness(grid, plane, r, c);
-            let sign = if (r + c) % 2 == 0 { 1.0 } else { -1.0 };
-            for (rr, cc) in [(r + 1, c), (r, c + 1)] {
-                if rr >= rows || cc >= cols {
-                    continue;
-                }
-                let diff = sign * (here - square_brightness(grid, plane, rr, cc));
-                if diff > 0.0 {
-                    positive += 1;
-                } else if diff < 0.0 {
-                    negative += 1;
-                }
-            }
-        }
-    }
+    let differences = neighbour_differences(grid, plane);
+    let positive = differences.iter().filter(|d| **d > 0.0).count();
+    let negative = differences.iter().filter(|d| **d < 0.0).count();
     let pairs = positive + negative;
     // One square pair in ten may disagree (glare, a pen mark); a clutter lattice has no rule.
     pairs > 0 && positive.max(negative) * 10 >= pairs * 9
@@ -622,7 +735,7 @@ fn opencv_order(mut grid: Vec<Vec<Pixel>>, plane: &Plane) -> Vec<Pixel> {
             row.reverse();
         }
     }
-    let (contrast, _, _) = parity_contrast(&grid, plane);
+    let contrast: f64 = neighbour_differences(&grid, plane).iter().sum();
     if contrast > 0.0 {
         // Square (0, 0) is bright: turn the board half a turn (keeps the handedness).
         grid.reverse();
@@ -631,134 +744,4 @@ fn opencv_order(mut grid: Vec<Vec<Pixel>>, plane: &Plane) -> Vec<Pixel> {
         }
     }
     grid.into_iter().flatten().collect()
-}
-
-/// Sub-pixel corners: first with a window a quarter of the local square (so that no other
-/// corner falls inside it, as OpenCV refines inside `findChessboardCorners`), then with the
-/// configured window.
-fn refine_grid(plane: &Plane, grid: &[Pixel], cols: usize, config: &CornerConfig) -> Vec<Pixel> {
-    grid.iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let (r, c) = (k / cols, k % cols);
-            let rows = grid.len() / cols;
-            let mut square = f64::INFINITY;
-            for (rr, cc) in [
-                (r.wrapping_sub(1), c),
-                (r + 1, c),
-                (r, c.wrapping_sub(1)),
-                (r, c + 1),
-            ] {
-                if rr < rows && cc < cols {
-                    square = square.min(p.distance(&grid[rr * cols + cc]));
-                }
-            }
-            let coarse_half =
-                ((square / 4.0).round() as usize).clamp(2, config.subpix_half_window_px);
-            let coarse = corner_subpix(plane, *p, coarse_half, config);
-            corner_subpix(plane, coarse, config.subpix_half_window_px, config)
-        })
-        .collect()
-}
-
-/// OpenCV's `cornerSubPix` with no dead zone: iterate
-/// `q ← (Σ w g gᵀ)⁻¹ Σ w g gᵀ p` over a `(2h+1)²` window resampled around `q`.
-fn corner_subpix(
-    plane: &Plane,
-    start: Pixel,
-    half_window_px: usize,
-    config: &CornerConfig,
-) -> Pixel {
-    let half = half_window_px as i32;
-    let side = (2 * half + 1) as usize;
-    let buffer_side = side + 2;
-    let mut mask = vec![0.0f64; side * side];
-    for i in 0..side {
-        let y = f64::from(i as i32 - half) / f64::from(half.max(1));
-        for j in 0..side {
-            let x = f64::from(j as i32 - half) / f64::from(half.max(1));
-            mask[i * side + j] = (-y * y).exp() * (-x * x).exp();
-        }
-    }
-    let eps2 = config.subpix_epsilon_px * config.subpix_epsilon_px;
-    let mut buffer = vec![0.0f64; buffer_side * buffer_side];
-    let mut q = start;
-    for _ in 0..config.subpix_max_iterations {
-        // buffer[(i, j)] samples q + (j - half - 1, i - half - 1): one fractional offset for
-        // the whole patch, so the bilinear weights are shared when it lies inside the image.
-        let x0 = q.x - f64::from(half + 1);
-        let y0 = q.y - f64::from(half + 1);
-        let (bx, by) = (x0.floor(), y0.floor());
-        let inside = bx >= 0.0
-            && by >= 0.0
-            && bx + (buffer_side as f64) < plane.width as f64
-            && by + (buffer_side as f64) < plane.height as f64;
-        if inside {
-            let (ax, ay) = (x0 - bx, y0 - by);
-            let (w00, w01, w10, w11) = (
-                (1.0 - ax) * (1.0 - ay),
-                ax * (1.0 - ay),
-                (1.0 - ax) * ay,
-                ax * ay,
-            );
-            let (bx, by) = (bx as usize, by as usize);
-            for i in 0..buffer_side {
-                let top = &plane.data[(by + i) * plane.width + bx..];
-                let bottom = &plane.data[(by + i + 1) * plane.width + bx..];
-                for j in 0..buffer_side {
-                    buffer[i * buffer_side + j] = w00 * f64::from(top[j])
-                        + w01 * f64::from(top[j + 1])
-                        + w10 * f64::from(bottom[j])
-                        + w11 * f64::from(bottom[j + 1]);
-                }
-            }
-        } else {
-            for i in 0..buffer_side {
-                for j in 0..buffer_side {
-                    buffer[i * buffer_side + j] = plane.bilinear(x0 + j as f64, y0 + i as f64);
-                }
-            }
-        }
-        let (mut a, mut b, mut c, mut bb1, mut bb2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for i in 0..side {
-            let py = f64::from(i as i32 - half);
-            for j in 0..side {
-                let px = f64::from(j as i32 - half);
-                let m = mask[i * side + j];
-                let at = (i + 1) * buffer_side + j + 1;
-                let gx = buffer[at + 1] - buffer[at - 1];
-                let gy = buffer[at + buffer_side] - buffer[at - buffer_side];
-                let (gxx, gxy, gyy) = (gx * gx * m, gx * gy * m, gy * gy * m);
-                a += gxx;
-                b += gxy;
-                c += gyy;
-                bb1 += gxx * px + gxy * py;
-                bb2 += gxy * px + gyy * py;
-            }
-        }
-        let det = a * c - b * b;
-        if det.abs() <= f64::EPSILON * f64::EPSILON {
-            break;
-        }
-        let next = Pixel::new(
-            q.x + (c * bb1 - b * bb2) / det,
-            q.y + (-b * bb1 + a * bb2) / det,
-        );
-        let moved2 = (next.x - q.x).powi(2) + (next.y - q.y).powi(2);
-        q = next;
-        if q.x < 0.0
-            || q.y < 0.0
-            || q.x >= plane.width as f64
-            || q.y >= plane.height as f64
-            || moved2 <= eps2
-        {
-            break;
-        }
-    }
-    // As OpenCV: a corner that wandered out of its window did not converge; keep the start.
-    if (q.x - start.x).abs() > f64::from(half) || (q.y - start.y).abs() > f64::from(half) {
-        start
-    } else {
-        q
-    }
 }

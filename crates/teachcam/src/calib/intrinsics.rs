@@ -169,6 +169,8 @@ pub struct IntrinsicCalibration {
     pub standard_errors: [f64; 9],
     /// Optimiser iterations.
     pub iterations: usize,
+    /// False when the optimiser stopped at its iteration limit rather than at a minimum.
+    pub converged: bool,
 }
 
 /// Least squares over the camera parameters (along `directions`) and every board pose.
@@ -450,6 +452,7 @@ pub fn calibrate_intrinsics(
         outlier_views,
         standard_errors,
         iterations: report.iterations,
+        converged: report.converged,
     })
 }
 

@@ -92,6 +92,8 @@ pub struct RigCalibration {
     pub world_from_board: BTreeMap<String, Pose>,
     /// Optimiser iterations of the bundle adjustment.
     pub iterations: usize,
+    /// False when the adjustment stopped at its iteration limit rather than at a minimum.
+    pub converged: bool,
 }
 
 /// Single-camera pose problem (PnP): the board pose only, the camera fixed.
@@ -311,8 +313,9 @@ pub fn calibrate_rig(
     let mut camera_from_board: BTreeMap<(usize, usize), Pose> = BTreeMap::new();
     for observation in observations {
         let c = observation.camera.0;
-        let camera = cameras.get(c).ok_or_else(|| CalibError::Unlinked {
+        let camera = cameras.get(c).ok_or_else(|| CalibError::UnknownCamera {
             camera: observation.camera.to_string(),
+            view: observation.view.clone(),
         })?;
         let view = BoardView {
             name: format!("{} in {}", observation.view, camera.name),
@@ -320,6 +323,12 @@ pub fn calibrate_rig(
         };
         check_views(points_in_board, std::slice::from_ref(&view))?;
         let v = view_index[observation.view.as_str()];
+        if camera_from_board.contains_key(&(c, v)) {
+            return Err(CalibError::DuplicateObservation {
+                camera: camera.name.clone(),
+                view: observation.view.clone(),
+            });
+        }
         camera_from_board.insert((c, v), board_pose(camera, points_in_board, &view)?);
     }
 
@@ -336,8 +345,9 @@ pub fn calibrate_rig(
         }
         WorldFrame::Camera(id) => {
             if id.0 >= cameras.len() {
-                return Err(CalibError::Unlinked {
+                return Err(CalibError::UnknownCamera {
                     camera: id.to_string(),
+                    view: "the world frame".to_owned(),
                 });
             }
             camera_from_world[id.0] = Some(Pose::identity());
@@ -520,5 +530,6 @@ pub fn calibrate_rig(
         rms_px,
         world_from_board: view_names.into_iter().zip(state.world_from_board).collect(),
         iterations: report.iterations,
+        converged: report.converged,
     })
 }

@@ -152,8 +152,7 @@ pub fn write_ros_yaml(path: &Path, camera: &Camera) -> Result<(), FileError> {
 
 /// A number as YAML reads it back exactly (Rust's shortest round-trip form).
 fn number(value: f64) -> String {
-    let text = format!("{value:?}");
-    text
+    format!("{value:?}")
 }
 
 fn list(values: &[f64]) -> String {
