@@ -192,24 +192,24 @@ pub enum SmoothError {
         tolerance_mm: f64,
     },
     /// The low-pass cannot be designed or applied to a run.
-    #[error("frames {first_frame}..={last_frame}: {source}")]
+    #[error("frames {first_frame}..={last_frame}: {cause}")]
     Filter {
         /// First frame of the run.
         first_frame: usize,
         /// Last frame of the run.
         last_frame: usize,
-        /// The cause.
-        source: FilterError,
+        /// The cause (in the message, not chained, so it is said once).
+        cause: FilterError,
     },
     /// The least-squares B-spline cannot be fitted to a run.
-    #[error("frames {first_frame}..={last_frame}: {source}")]
+    #[error("frames {first_frame}..={last_frame}: {cause}")]
     Nurbs {
         /// First frame of the run.
         first_frame: usize,
         /// Last frame of the run.
         last_frame: usize,
-        /// The cause.
-        source: bspline::BSplineError,
+        /// The cause (in the message, not chained, so it is said once).
+        cause: bspline::BSplineError,
     },
     /// A parameter of the method is out of range.
     #[error("{parameter} = {value} is out of range: {reason}")]
@@ -419,7 +419,7 @@ pub fn smooth_series(
                     SmoothError::Filter {
                         first_frame: 0,
                         last_frame,
-                        source,
+                        cause: source,
                     }
                 })?;
             filter
@@ -427,7 +427,7 @@ pub fn smooth_series(
                 .map_err(|source| SmoothError::Filter {
                     first_frame: 0,
                     last_frame,
-                    source,
+                    cause: source,
                 })
         }
         // On a uniform run, the interpolating spline at the sample times is the samples.
@@ -451,7 +451,7 @@ pub fn smooth_series(
                 |source| SmoothError::Nurbs {
                     first_frame: 0,
                     last_frame,
-                    source,
+                    cause: source,
                 },
             )?;
             Ok(fit.fit(values))
@@ -509,7 +509,7 @@ fn check_method(
             .map_err(|source| SmoothError::Filter {
                 first_frame: frames.start,
                 last_frame: frames.end,
-                source,
+                cause: source,
             }),
         Method::Nurbs {
             degree,
@@ -595,10 +595,10 @@ fn is_too_short(error: &SmoothError) -> bool {
     matches!(
         error,
         SmoothError::Filter {
-            source: FilterError::TooShort { .. },
+            cause: FilterError::TooShort { .. },
             ..
         } | SmoothError::Nurbs {
-            source: bspline::BSplineError::Underdetermined { .. },
+            cause: bspline::BSplineError::Underdetermined { .. },
             ..
         }
     )
@@ -606,15 +606,15 @@ fn is_too_short(error: &SmoothError) -> bool {
 
 fn rename_frames(error: SmoothError, first: usize, last: usize) -> SmoothError {
     match error {
-        SmoothError::Filter { source, .. } => SmoothError::Filter {
+        SmoothError::Filter { cause: source, .. } => SmoothError::Filter {
             first_frame: first,
             last_frame: last,
-            source,
+            cause: source,
         },
-        SmoothError::Nurbs { source, .. } => SmoothError::Nurbs {
+        SmoothError::Nurbs { cause: source, .. } => SmoothError::Nurbs {
             first_frame: first,
             last_frame: last,
-            source,
+            cause: source,
         },
         SmoothError::BezierTooLong { samples, max, .. } => SmoothError::BezierTooLong {
             first_frame: first,
@@ -789,7 +789,7 @@ pub fn suggest_cutoff(
     let filter_error = |source| SmoothError::Filter {
         first_frame: trajectory.samples[segment.start].frame.0,
         last_frame: trajectory.samples[segment.end - 1].frame.0,
-        source,
+        cause: source,
     };
     let analyse = |c: &Vec<f64>| {
         let head = &c[..c.len().min(SUGGESTION_MAX_SAMPLES)];
