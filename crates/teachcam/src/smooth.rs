@@ -284,8 +284,21 @@ pub fn check_timing(
         }
     }
     Ok(Timing {
-        sample_rate_hz: 1.0 / mean_step_s,
+        sample_rate_hz: snapped_rate_hz(1.0 / mean_step_s, last.time_s - first.time_s),
     })
+}
+
+/// The sampling rate from the time span, snapped to a multiple of 0.001 Hz (30, 29.97, 100,
+/// 119.88) when the difference is within what the file's microsecond rounding of the two end
+/// times allows (`1e-6 s / span`, relative). Otherwise the rounding would leak into the filter
+/// coefficients at about 1e-8 and move the output away from `butter(N, fc, fs=30)`.
+fn snapped_rate_hz(rate_hz: f64, span_s: f64) -> f64 {
+    let snapped = (rate_hz * 1000.0).round() / 1000.0;
+    if (snapped - rate_hz).abs() <= rate_hz * 1e-6 / span_s {
+        snapped
+    } else {
+        rate_hz
+    }
 }
 
 /// Smooths a trajectory: every run (segments merged across gaps of at most

@@ -416,3 +416,19 @@ mod never_panics {
         }
     }
 }
+
+#[test]
+fn sample_rate_survives_the_csv_microsecond_rounding() {
+    // 1/30 s is written as 0.033333: the span read back is off by up to 1e-6 s.
+    for (fs, n) in [(30.0, 901), (29.97, 500), (100.0, 1234), (119.88, 77)] {
+        let positions = vec![[1.0, 2.0, 3.0]; n];
+        let rotations = vec![UnitQuaternion::identity(); n];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        teachcam::io::trajectory::write_trajectory(&path, &trajectory(fs, &positions, &rotations))
+            .unwrap();
+        let back = teachcam::io::trajectory::read_trajectory(&path).unwrap();
+        let timing = teachcam::smooth::check_timing(&back, 1e-3).unwrap();
+        assert_eq!(timing.sample_rate_hz, fs);
+    }
+}
