@@ -303,8 +303,9 @@ fn snapped_rate_hz(rate_hz: f64, span_s: f64) -> f64 {
 
 /// Smooths a trajectory: every run (segments merged across gaps of at most
 /// `config.max_gap_frames`) through `config.method`, gaps inside runs filled and marked
-/// [`PoseSource::Filled`], longer gaps kept. Frames, times, marker counts and residuals are
-/// kept; the tip is recomputed from the smoothed pose.
+/// [`PoseSource::Filled`] (with `markers` and `rms_mm` 0: nothing was measured), longer gaps
+/// kept. Frames, times, marker counts and residuals are kept; the tip is recomputed from the
+/// smoothed pose.
 ///
 /// # Errors
 /// [`SmoothError`] naming the frame or the run: non-uniform or missing frames, non-finite
@@ -349,9 +350,9 @@ pub struct RunSeries {
 }
 
 /// Builds the series of a run whose first and last samples have a pose; inner gaps are filled
-/// by not-a-knot cubic splines over the measured samples.
+/// by cubic splines with `fill_ends` over the measured samples.
 #[must_use]
-pub fn run_series(samples: &[Sample]) -> RunSeries {
+pub fn run_series(samples: &[Sample], fill_ends: SplineEnds) -> RunSeries {
     let measured: Vec<(usize, &ToolPose)> = samples
         .iter()
         .enumerate()
@@ -381,7 +382,7 @@ pub fn run_series(samples: &[Sample]) -> RunSeries {
         let times: Vec<f64> = measured.iter().map(|(i, _)| samples[*i].time_s).collect();
         let splines: Vec<Option<CubicSpline>> = columns
             .iter()
-            .map(|y| CubicSpline::new(&times, y, SplineEnds::NotAKnot).ok())
+            .map(|y| CubicSpline::new(&times, y, fill_ends).ok())
             .collect();
         let mut filled: [Vec<f64>; 6] = Default::default();
         rotations = Vec::with_capacity(samples.len());
@@ -556,7 +557,12 @@ fn smooth_run(
 ) -> Result<Vec<Sample>, SmoothError> {
     let first_frame = samples.first().map_or(0, |s| s.frame.0);
     let last_frame = samples.last().map_or(0, |s| s.frame.0);
-    let series = run_series(samples);
+    // Gaps are filled by the spline the user chose, or scipy's default ends otherwise.
+    let fill_ends = match method {
+        Method::Spline { ends } => *ends,
+        _ => SplineEnds::NotAKnot,
+    };
+    let series = run_series(samples, fill_ends);
     let smoothed: Vec<Vec<f64>> = series
         .columns
         .par_iter()
@@ -739,7 +745,8 @@ fn longest_segment(
             samples: trajectory.len(),
             poses: 0,
         })?;
-    let series = run_series(&trajectory.samples[segment.clone()]);
+    // A segment has no gap: nothing is filled.
+    let series = run_series(&trajectory.samples[segment.clone()], SplineEnds::NotAKnot);
     Ok((timing, segment, series))
 }
 
