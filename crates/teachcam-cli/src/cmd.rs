@@ -2,6 +2,7 @@
 
 pub mod align;
 pub mod c3d;
+pub mod calibrate;
 pub mod check;
 pub mod demo;
 pub mod detect;
@@ -9,6 +10,7 @@ pub mod export;
 pub mod import;
 pub mod pivot;
 pub mod repeatability;
+pub mod report;
 pub mod simulate;
 pub mod smooth;
 pub mod smoothing_study;

@@ -23,36 +23,24 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Simulate the paper's setup and run the whole pipeline on it.
     Demo(cmd::demo::Args),
-    /// Write a simulated recording with its ground truth.
+    Report(cmd::report::Args),
     Simulate(cmd::simulate::Args),
-    /// Find marker blobs with sub-pixel centres in every frame of a recording.
     Detect(cmd::detect::Args),
-    /// Repeatability of blob centres of static markers (the paper's Fig. 10).
     Repeatability(cmd::repeatability::Args),
-    /// Track the tool through a recording: detect, correspond, triangulate, identify, register.
     Track(cmd::track::Args),
-    /// Tool-tip uncertainty at a pose by Monte Carlo through the tracking chain.
+    Calibrate(cmd::calibrate::Args),
     Uncertainty(cmd::uncertainty::Args),
-    /// First-order tip uncertainty over a grid of the working volume.
     UncertaintyMap(cmd::uncertainty_map::Args),
-    /// Check a tool's marker layout: identification margin and expected tip error.
     ToolCheck(cmd::tool_check::Args),
-    /// Inspect C3D motion-capture files (`teachcam c3d info FILE.c3d`).
     C3d(cmd::c3d::Args),
-    /// Another tracker's markers (C3D, Motive CSV, Qualisys TSV) to a tool trajectory.
     Import(cmd::import::Args),
     Smooth(cmd::smooth::Args),
     Spectrum(cmd::spectrum::Args),
     SmoothingStudy(cmd::smoothing_study::Args),
-    /// Check a trajectory on a robot: reach, joint limits, speeds, singularities.
     Check(cmd::check::Args),
-    /// Write a robot program (RAPID, KRL, URScript or CSV) for a trajectory.
     Export(cmd::export::Args),
-    /// Align the vision frame with the robot's base from points known in both.
     Align(cmd::align::Args),
-    /// Pivot calibration of the tool centre point.
     Pivot(cmd::pivot::Args),
 }
 
@@ -85,10 +73,12 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
+        Command::Report(args) => cmd::report::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
         Command::Detect(args) => cmd::detect::run(&args),
         Command::Repeatability(args) => cmd::repeatability::run(&args),
         Command::Track(args) => cmd::track::run(&args),
+        Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
         Command::ToolCheck(args) => cmd::tool_check::run(&args),

@@ -70,18 +70,22 @@ fn font() -> Result<()> {
 
 /// Draws `panels` stacked vertically into a PNG file at `path`, written whole or not at all.
 pub fn write_png(path: &Path, panels: &[Panel]) -> Result<()> {
+    let png = png_bytes(panels).with_context(|| format!("drawing {}", path.display()))?;
+    teachcam::io::write_atomically(path, &png)?;
+    Ok(())
+}
+
+/// Draws `panels` stacked vertically and returns the PNG file's bytes.
+pub fn png_bytes(panels: &[Panel]) -> Result<Vec<u8>> {
     font()?;
     let height = PANEL_HEIGHT_PX * panels.len().max(1) as u32;
     let mut buffer = vec![255u8; (WIDTH_PX * height * 3) as usize];
-    draw(&mut buffer, height, panels).map_err(|e| anyhow!("drawing {}: {e}", path.display()))?;
+    draw(&mut buffer, height, panels).map_err(|e| anyhow!("{e}"))?;
     let image = image::RgbImage::from_raw(WIDTH_PX, height, buffer)
         .ok_or_else(|| anyhow!("plot buffer has the wrong size"))?;
     let mut png = std::io::Cursor::new(Vec::new());
-    image
-        .write_to(&mut png, image::ImageFormat::Png)
-        .with_context(|| format!("encoding {}", path.display()))?;
-    teachcam::io::write_atomically(path, png.get_ref())?;
-    Ok(())
+    image.write_to(&mut png, image::ImageFormat::Png)?;
+    Ok(png.into_inner())
 }
 
 /// A tick label: plain decimals for ordinary magnitudes, `1e-5` style otherwise.

@@ -182,3 +182,47 @@ fn import_refuses_unknown_labels_with_exit_status_1() {
     assert!(stderr.contains("no marker labelled \"Nope\""), "{stderr}");
     assert!(!temp.path().join("t.csv").exists(), "no partial output");
 }
+
+/// The probe's trajectory becomes a RAPID program. The Optotrak lab frame is far from an
+/// IRB 120, so the work object places the first probe pose at (350, 0, 300) mm in the base
+/// frame, tool z pointing down: `base_from_wobj = target * world_from_tool(frame 0)⁻¹`,
+/// computed with scipy from the trajectory's first row (the probe barely moves in the trial).
+#[test]
+fn probe_trajectory_exports_to_rapid() {
+    let Some(dir) = shared_c3d() else { return };
+    let temp = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let (traj, program) = (temp.path().join("traj.csv"), temp.path().join("probe.mod"));
+    let run = |args: &[&std::ffi::OsStr]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_teachcam"))
+            .args(args)
+            .output()
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let file = dir.join("ktk_racing_probing_acromion_R.c3d");
+    run(&[
+        "import".as_ref(),
+        "c3d".as_ref(),
+        file.as_os_str(),
+        "--markers".as_ref(),
+        "Probe1,Probe2,Probe3,Probe4,Probe5,Probe6".as_ref(),
+        "-o".as_ref(),
+        traj.as_os_str(),
+    ]);
+    run(&[
+        "export".as_ref(),
+        "rapid".as_ref(),
+        traj.as_os_str(),
+        "--wobj".as_ref(),
+        "-679.866,202.499,-630.479,0.523850483,0.560218429,0.414935909,-0.489452933".as_ref(),
+        "-o".as_ref(),
+        program.as_os_str(),
+    ]);
+    let text = std::fs::read_to_string(&program).unwrap_or_else(|e| panic!("{e}"));
+    assert!(text.starts_with("MODULE"), "{text}");
+    assert!(text.contains("MoveL p0002"), "{text}");
+}

@@ -248,3 +248,54 @@ fn pivot_refuses_a_recording_that_does_not_turn() {
         text(&out.stderr)
     );
 }
+
+#[test]
+fn acceleration_limit_is_judged_when_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    let path = trajectory.to_str().unwrap();
+    let base = ["check", path, "--wobj", WOBJ, "--tcp", TCP];
+    let mut strict = base.to_vec();
+    strict.extend(["--max-acceleration-deg-s2", "1"]);
+    let out = teachcam(&strict);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stdout).contains("accelerates too hard"));
+    let mut loose = base.to_vec();
+    loose.extend(["--max-acceleration-deg-s2", "100000"]);
+    assert!(teachcam(&loose).status.success());
+}
+
+/// `--help` explains the robot commands with an example and the contract's flags.
+#[test]
+fn help_texts_explain_the_robot_commands() {
+    for (command, flags) in [
+        (
+            "check",
+            &["--robot", "--wobj", "--tcp", "--joints-out", "Example:"][..],
+        ),
+        (
+            "export",
+            &[
+                "rapid",
+                "krl",
+                "urscript",
+                "--force",
+                "--tolerance-mm",
+                "Example:",
+            ][..],
+        ),
+        ("align", &["x_wobj_mm", "Example:"][..]),
+        ("pivot", &["--min-rotation-deg", "Example:"][..]),
+    ] {
+        let out = teachcam(&[command, "--help"]);
+        assert!(out.status.success());
+        let help = text(&out.stdout);
+        for flag in flags {
+            assert!(
+                help.contains(flag),
+                "{command} --help lacks {flag}:\n{help}"
+            );
+        }
+    }
+}

@@ -39,7 +39,7 @@ pub use bytes::Processor;
 pub use parameters::{Group, Parameter, ParameterData, Parameters};
 pub use rigid::{
     MarkerSelection, ToolFromData, ToolFromDataConfig, TrackMarkersConfig, points_from_tracks,
-    points_from_trajectory, tool_from_data, track_markers,
+    points_from_trajectory, points_from_trajectory_and_measured, tool_from_data, track_markers,
 };
 pub use write::{to_bytes, write_file};
 

@@ -3,6 +3,7 @@
 //! (or line) it refuses; every writer writes a whole file or nothing (a temporary file in the
 //! same folder, renamed over the target once complete).
 
+pub mod camera_file;
 pub mod recording;
 pub mod rig;
 pub mod tool;

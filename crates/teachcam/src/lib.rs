@@ -22,7 +22,8 @@
 //! - [`camera`]: the camera model, distortion and epipolar geometry.
 //! - [`tool`]: the tracked tool's markers and tip.
 //! - [`trajectory`]: poses over time, with explicit gaps.
-//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV).
+//! - [`io`]: the contract's files (rig, tool, recording, trajectory CSV, camera YAML).
+//! - [`calib`]: chessboard corners, Zhang intrinsics, rig extrinsics and bundle adjustment (§II-A).
 //! - [`detect`]: marker blobs in an image, with sub-pixel centres (§II-A, §IV-A).
 //! - [`correspond`]: which blobs in different cameras show the same marker (§II-A).
 //! - [`triangulate`]: 3-D points from corresponding blobs.
@@ -32,16 +33,17 @@
 //! - [`smooth`]: the paper's four smoothers (low-pass, spline, Bezier, NURBS), SO(3)-aware,
 //!   with spectrum, cut-off suggestion and gap filling.
 //! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
-//! - [`robot`]: vision↔robot frames, IRB 120 kinematics, the robot check, RAPID/KRL/URScript.
-//! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
+//! - [`robot`]: vision↔robot frames, IRB 120 kinematics, the robot check, RAPID/KRL/URScript (§V).
 //! - [`c3d`]: C3D motion-capture files in and out.
 //! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
+//! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
 
 pub mod geometry;
 pub mod camera;
 pub mod tool;
 pub mod trajectory;
 pub mod io;
+pub mod calib;
 pub mod detect;
 pub mod correspond;
 pub mod triangulate;
@@ -51,6 +53,6 @@ pub mod track;
 pub mod smooth;
 pub mod metrology;
 pub mod robot;
-pub mod sim;
 pub mod c3d;
 pub mod vendor;
+pub mod sim;

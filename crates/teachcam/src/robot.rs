@@ -70,7 +70,7 @@ pub struct TcpTarget {
 
 /// The robot targets of a trajectory, one per frame with a pose (gaps are skipped; the frame
 /// numbers keep them visible): position from the tip column, orientation the tool's composed
-/// with `tcp_from_tool_axes`, the tool file's `tip_rotation` (identity without a tool file).
+/// with `tip_rotation`, the tool file's (`tool_from_tcp.rotation`; identity without a tool file).
 #[must_use]
 pub fn tcp_targets(trajectory: &Trajectory, tip_rotation: &UnitQuaternion<f64>) -> Vec<TcpTarget> {
     trajectory

@@ -11,6 +11,9 @@
 //!   `FREQUENCY`, `MARKER_NAMES`, ...), an optional column header (`Frame Time m1 X m1 Y ...`),
 //!   then one row per frame: optional frame number and time, then X Y Z per marker in
 //!   millimetres. QTM writes a marker it did not see as `0 0 0`, so exact zeros are a gap.
+//! - **teachcam's own 3-D markers** (`teachcam track --markers-out`): header
+//!   `frame,marker,x_mm,y_mm,z_mm,...`, one row per identified marker per frame; a marker
+//!   absent from a frame is a gap. Labels are `M0`, `M1`, ... by marker id; the rate is given.
 //! - **Out**: a trajectory as a Motive-like rigid-body CSV (rotation X, Y, Z, W; position;
 //!   mean marker error), millimetres, which Motive-reading scripts take as a rigid-body export.
 //!
@@ -39,13 +42,10 @@ pub fn read_motive_csv(path: &Path) -> Result<PointData, FileError> {
 /// # Errors
 /// As [`read_motive_csv`].
 pub fn parse_motive_csv(path: &Path, text: &str) -> Result<PointData, FileError> {
-    let rows: Vec<Vec<&str>> = text
-        .lines()
-        .map(|line| {
-            line.split(',')
-                .map(|c| c.trim().trim_matches('"'))
-                .collect()
-        })
+    let owned: Vec<Vec<String>> = text.lines().map(split_csv_line).collect();
+    let rows: Vec<Vec<&str>> = owned
+        .iter()
+        .map(|r| r.iter().map(String::as_str).collect())
         .collect();
     let meta = rows
         .first()
@@ -136,6 +136,28 @@ pub fn parse_motive_csv(path: &Path, text: &str) -> Result<PointData, FileError>
     }
     PointData::new(labels, rate_hz, units.to_string(), &frames)
         .map_err(|e| FileError::invalid(path, e.to_string()))
+}
+
+/// The cells of one CSV line, trimmed; a double-quoted cell may hold commas and `""` for a
+/// quote (Motive quotes names and ids). Records never span lines in these exports.
+fn split_csv_line(line: &str) -> Vec<String> {
+    let mut cells = Vec::new();
+    let mut cell = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cell.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => cells.push(std::mem::take(&mut cell).trim().to_string()),
+            _ => cell.push(c),
+        }
+    }
+    cells.push(cell.trim().to_string());
+    cells
 }
 
 /// A sample from three cells starting at `col`: a gap when any is empty or missing.
@@ -264,6 +286,110 @@ pub fn parse_qualisys_tsv(path: &Path, text: &str) -> Result<PointData, FileErro
     let rate_hz = rate_hz.ok_or_else(|| FileError::invalid(path, "no FREQUENCY line"))?;
     let labels = labels.ok_or_else(|| FileError::invalid(path, "no MARKER_NAMES line"))?;
     PointData::new(labels, rate_hz, "mm".into(), &frames)
+        .map_err(|e| FileError::invalid(path, e.to_string()))
+}
+
+/// Reads the identified 3-D markers `teachcam track --markers-out` writes, at `rate_hz`.
+///
+/// # Errors
+/// [`FileError`] naming the file and line: a missing column, a cell that is not a number, a
+/// frame or marker number beyond 10^7, or more than 10^7 samples in all (a corrupted file,
+/// refused before allocating).
+pub fn read_markers_csv(path: &Path, rate_hz: f64) -> Result<PointData, FileError> {
+    parse_markers_csv(path, &read_text(path)?, rate_hz)
+}
+
+/// Largest frame or marker number [`parse_markers_csv`] accepts.
+const MAX_MARKERS_CSV_INDEX: usize = 10_000_000;
+
+/// Largest frames × markers grid [`parse_markers_csv`] allocates (an hour at 100 Hz of a
+/// 25-marker tool; about 500 MB): a corrupted frame number must not exhaust memory.
+const MAX_MARKERS_CSV_SAMPLES: usize = 10_000_000;
+
+/// Parses the text of a `--markers-out` file; `path` only names the file in errors.
+///
+/// # Errors
+/// As [`read_markers_csv`].
+pub fn parse_markers_csv(path: &Path, text: &str, rate_hz: f64) -> Result<PointData, FileError> {
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return Err(FileError::invalid(path, format!("frame rate {rate_hz} Hz")));
+    }
+    let mut lines = text.lines().enumerate();
+    let header: Vec<&str> = lines
+        .next()
+        .map(|(_, l)| l.split(',').map(str::trim).collect())
+        .unwrap_or_default();
+    let column = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .ok_or_else(|| FileError::invalid_line(path, 1, format!("no column {name:?}")))
+    };
+    let columns = [
+        column("frame")?,
+        column("marker")?,
+        column("x_mm")?,
+        column("y_mm")?,
+        column("z_mm")?,
+    ];
+    if columns[3] != columns[2] + 1 || columns[4] != columns[2] + 2 {
+        return Err(FileError::invalid_line(
+            path,
+            1,
+            "x_mm, y_mm, z_mm must be adjacent columns, in that order",
+        ));
+    }
+    let mut rows: Vec<(usize, usize, Point3)> = Vec::new();
+    for (i, line) in lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        let cell = |k: usize| cells.get(columns[k]).copied().unwrap_or("");
+        let index = |k: usize| {
+            cell(k)
+                .parse::<usize>()
+                .ok()
+                .filter(|v| *v < MAX_MARKERS_CSV_INDEX)
+                .ok_or_else(|| {
+                    FileError::invalid_line(
+                        path,
+                        i + 1,
+                        format!(
+                            "{}: {:?} is not a frame or marker number",
+                            header[columns[k]],
+                            cell(k)
+                        ),
+                    )
+                })
+        };
+        let (frame, marker) = (index(0)?, index(1)?);
+        let Some(sample) = xyz_cells(path, i + 1, &cells, columns[2], &format!("M{marker}"))?
+        else {
+            return Err(FileError::invalid_line(path, i + 1, "empty coordinate"));
+        };
+        rows.push((frame, marker, sample.position));
+    }
+    let frames = rows.iter().map(|r| r.0 + 1).max().unwrap_or(0);
+    let markers = rows.iter().map(|r| r.1 + 1).max().unwrap_or(0);
+    if frames.saturating_mul(markers) > MAX_MARKERS_CSV_SAMPLES {
+        return Err(FileError::invalid(
+            path,
+            format!(
+                "{frames} frames x {markers} markers is more than {MAX_MARKERS_CSV_SAMPLES} samples"
+            ),
+        ));
+    }
+    let mut grid = vec![vec![None; markers]; frames];
+    for (frame, marker, position) in rows {
+        grid[frame][marker] = Some(PointSample {
+            position,
+            residual: 0.0,
+            camera_mask: 0,
+        });
+    }
+    let labels = (0..markers).map(|k| format!("M{k}")).collect();
+    PointData::new(labels, rate_hz, "mm".into(), &grid)
         .map_err(|e| FileError::invalid(path, e.to_string()))
 }
 

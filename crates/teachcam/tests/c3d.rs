@@ -828,34 +828,8 @@ fn more_than_65535_frames_round_trip() {
 /// precision; the tip is the registered tip; the camera masks name the three cameras.
 #[test]
 fn tracked_markers_to_c3d_and_back() {
-    use teachcam::correspond::Views;
-    use teachcam::sim::{Scenario, build_scene, markers_in_world};
-    use teachcam::track::{TrackConfig, Tracker};
-
-    let scene = build_scene(Scenario::Paper, 1);
-    let frames: Vec<Views> = scene
-        .truth
-        .samples
-        .iter()
-        .filter_map(|s| s.pose)
-        .map(|pose| {
-            let world = markers_in_world(&scene.tool, &pose.world_from_tool);
-            scene
-                .rig
-                .iter()
-                .map(|(id, camera)| {
-                    let pixels = world
-                        .iter()
-                        .filter_map(|p| camera.project(p))
-                        .filter(|p| camera.image_size.contains(p))
-                        .collect();
-                    (id, pixels)
-                })
-                .collect()
-        })
-        .collect();
-    let tracker = Tracker::new(&scene.rig, &scene.tool, TrackConfig::default());
-    let (_, tracks) = tracker.track_all(&frames, scene.fps);
+    use teachcam::sim::markers_in_world;
+    let (scene, tracks) = simulated_tracks();
     let points =
         c3d::points_from_tracks(&tracks, &scene.tool, scene.fps).unwrap_or_else(|e| panic!("{e}"));
     let bytes = c3d::to_bytes(&points, 0.001).unwrap_or_else(|e| panic!("{e}"));
@@ -896,4 +870,136 @@ fn tracked_markers_to_c3d_and_back() {
     // The paper's stroke keeps every marker in view of all three cameras.
     assert_eq!(compared, tracks.len() * scene.tool.markers_in_tool.len());
     assert!(tracks.len() >= 100, "{} frames", tracks.len());
+}
+
+/// The paper's simulated stroke, tracked from exact marker projections (no noise).
+fn simulated_tracks() -> (teachcam::sim::Scene, Vec<teachcam::track::FrameTrack>) {
+    let (scene, _, tracks) = simulated_tracking();
+    (scene, tracks)
+}
+
+/// [`simulated_tracks`] with the trajectory.
+fn simulated_tracking() -> (
+    teachcam::sim::Scene,
+    teachcam::trajectory::Trajectory,
+    Vec<teachcam::track::FrameTrack>,
+) {
+    use teachcam::correspond::Views;
+    use teachcam::sim::{Scenario, build_scene, markers_in_world};
+    use teachcam::track::{TrackConfig, Tracker};
+
+    let scene = build_scene(Scenario::Paper, 1);
+    let frames: Vec<Views> = scene
+        .truth
+        .samples
+        .iter()
+        .filter_map(|s| s.pose)
+        .map(|pose| {
+            let world = markers_in_world(&scene.tool, &pose.world_from_tool);
+            scene
+                .rig
+                .iter()
+                .map(|(id, camera)| {
+                    let pixels = world
+                        .iter()
+                        .filter_map(|p| camera.project(p))
+                        .filter(|p| camera.image_size.contains(p))
+                        .collect();
+                    (id, pixels)
+                })
+                .collect()
+        })
+        .collect();
+    let tracker = Tracker::new(&scene.rig, &scene.tool, TrackConfig::default());
+    let (trajectory, tracks) = tracker.track_all(&frames, scene.fps);
+    (scene, trajectory, tracks)
+}
+
+/// Tool from a recording: the markers `teachcam track --markers-out` writes (its layout,
+/// written here from the tracks) read back and turned into a tool whose shape is the
+/// simulator's tool: every inter-marker distance within 1e-3 mm (exact projections).
+#[test]
+fn tool_from_our_tracked_markers_matches_the_true_tool() {
+    use std::fmt::Write as _;
+    let (scene, tracks) = simulated_tracks();
+    let mut text = String::from("frame,marker,x_mm,y_mm,z_mm,views,residual_px\n");
+    for (frame, track) in tracks.iter().enumerate() {
+        for (marker, p) in track.markers_in_world() {
+            let _ = writeln!(
+                text,
+                "{frame},{},{:.6},{:.6},{:.6},3,0.01",
+                marker.0, p.x, p.y, p.z
+            );
+        }
+    }
+    let points =
+        teachcam::vendor::parse_markers_csv(std::path::Path::new("m.csv"), &text, scene.fps)
+            .unwrap_or_else(|e| panic!("{e}"));
+    let n = scene.tool.markers_in_tool.len();
+    assert_eq!(points.marker_count(), n);
+    let columns: Vec<usize> = (0..n).collect();
+    let built = c3d::tool_from_data(
+        &points,
+        &columns,
+        0..usize::MAX,
+        None,
+        &c3d::ToolFromDataConfig::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(built.frames_used, tracks.len());
+    for i in 0..n {
+        for j in i + 1..n {
+            let ours = (built.tool.markers_in_tool[i] - built.tool.markers_in_tool[j]).norm();
+            let truth = (scene.tool.markers_in_tool[i] - scene.tool.markers_in_tool[j]).norm();
+            assert!((ours - truth).abs() < 1e-3, "{i}-{j}: {ours} vs {truth}");
+        }
+    }
+    // The documented tool frame: marker 0 at the origin, marker 1 on +x, marker 2 in z = 0.
+    let m = &built.tool.markers_in_tool;
+    assert!(m[0].coords.norm() < 1e-9);
+    assert!(m[1].y.abs() < 1e-9 && m[1].z.abs() < 1e-9 && m[1].x > 0.0);
+    assert!(m[2].z.abs() < 1e-9 && m[2].y > 0.0);
+    assert!(built.marker_rms_mm.iter().all(|r| *r < 1e-3));
+}
+
+/// A trajectory with the measured markers of `track --markers-out` (its layout, printed to
+/// 1e-6 mm) gives the same C3D points as the tracks themselves: markers and tip within 1e-6 mm.
+#[test]
+fn trajectory_with_measured_markers_equals_the_tracks() {
+    use std::fmt::Write as _;
+    let (scene, trajectory, tracks) = simulated_tracking();
+    let mut text = String::from("frame,marker,x_mm,y_mm,z_mm,views,residual_px\n");
+    for (frame, track) in tracks.iter().enumerate() {
+        for (marker, p) in track.markers_in_world() {
+            let _ = writeln!(
+                text,
+                "{frame},{},{:.6},{:.6},{:.6},3,0.01",
+                marker.0, p.x, p.y, p.z
+            );
+        }
+    }
+    let measured =
+        teachcam::vendor::parse_markers_csv(std::path::Path::new("m.csv"), &text, scene.fps)
+            .unwrap_or_else(|e| panic!("{e}"));
+    let ours = c3d::points_from_trajectory_and_measured(&trajectory, &scene.tool, &measured)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let direct =
+        c3d::points_from_tracks(&tracks, &scene.tool, scene.fps).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(ours.labels, direct.labels);
+    assert_eq!(ours.frame_count(), direct.frame_count());
+    for f in 0..ours.frame_count() {
+        for m in 0..ours.marker_count() {
+            let (a, b) = (
+                ours.sample(FrameIndex(f), m),
+                direct.sample(FrameIndex(f), m),
+            );
+            assert_eq!(a.is_some(), b.is_some(), "frame {f} marker {m}");
+            if let (Some(a), Some(b)) = (a, b) {
+                assert!(
+                    (a.position - b.position).amax() < 1e-6,
+                    "frame {f} marker {m}"
+                );
+            }
+        }
+    }
 }

@@ -877,3 +877,30 @@ fn non_increasing_time_is_reported_not_divided_by() {
             .all(|f| f.joint_speed.iter().all(|v| v.is_finite()))
     );
 }
+
+/// A dwell (the brush held still for a second) keeps its duration in RAPID through `\T`.
+#[test]
+fn rapid_dwell_keeps_its_recorded_duration() {
+    let model = RobotModel::irb120();
+    let cell = cell();
+    let still = pose_from_parts(
+        Vector3::new(0.0, 0.0, 20.0),
+        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI),
+    );
+    let targets: Vec<TcpTarget> = [0.0, 1.0]
+        .iter()
+        .enumerate()
+        .map(|(k, &t)| TcpTarget {
+            frame: FrameIndex(k),
+            time_s: t,
+            wobj_from_tcp: still,
+        })
+        .collect();
+    let report = check_path(&model, &cell, &targets, &CheckConfig::default());
+    let program = build_program("dwell", &cell, &report, &SimplifyConfig::default());
+    let module = rapid_module(&program, &RapidConfig::default());
+    assert!(
+        module.contains("MoveL p0002, v0002\\T:=1.0000, fine,"),
+        "{module}"
+    );
+}

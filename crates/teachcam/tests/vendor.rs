@@ -194,3 +194,46 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn markers_csv_gaps_and_errors() {
+    let path = Path::new("m.csv");
+    let text = "frame,marker,x_mm,y_mm,z_mm,views,residual_px\n0,0,1,2,3,3,0.1\n0,2,4,5,6,2,0.1\n2,1,7,8,9,3,0.1\n";
+    let points = vendor::parse_markers_csv(path, text, 30.0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(points.labels, ["M0", "M1", "M2"]);
+    assert_eq!(points.frame_count(), 3);
+    assert_eq!(position(&points, 0, 2), Some([4.0, 5.0, 6.0]));
+    assert_eq!(
+        position(&points, 1, 0),
+        None,
+        "a frame without rows is a gap"
+    );
+    assert_eq!(position(&points, 2, 1), Some([7.0, 8.0, 9.0]));
+    let huge = "frame,marker,x_mm,y_mm,z_mm\n9999999,9999999,1,2,3\n";
+    assert!(
+        error(vendor::parse_markers_csv(path, huge, 30.0)).contains("more than 10000000 samples")
+    );
+    let bad = "frame,marker,x_mm,y_mm,z_mm\n0,a,1,2,3\n";
+    assert_eq!(
+        error(vendor::parse_markers_csv(path, bad, 30.0)),
+        "m.csv:2: marker: \"a\" is not a frame or marker number"
+    );
+    assert!(error(vendor::parse_markers_csv(path, "frame,x_mm\n", 30.0)).contains("no column"));
+    assert!(error(vendor::parse_markers_csv(path, text, 0.0)).contains("frame rate"));
+}
+
+#[test]
+fn motive_quoted_names_may_hold_commas() {
+    let text = "Format Version,1.23,Export Frame Rate,100,Length Units,Meters\n\n\
+,Type,Marker,Marker,Marker\n\
+,Name,\"Wand, tip\",\"Wand, tip\",\"Wand, tip\"\n\
+,ID,\"1,2\",\"1,2\",\"1,2\"\n\
+,,Position,Position,Position\n\
+Frame,Time (Seconds),X,Y,Z\n\
+0,0.0,0.5,0.25,1.0\n";
+    let points =
+        vendor::parse_motive_csv(Path::new("q.csv"), text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(points.labels, ["Wand, tip"]);
+    assert_eq!(points.units, "m");
+    assert_eq!(position(&points, 0, 0), Some([0.5, 0.25, 1.0]));
+}

@@ -9,8 +9,10 @@ use teachcam::robot::pose_text;
 
 use crate::Rejected;
 
-/// Align the vision frame (the work object) with the robot's base frame from three or more
-/// points touched by the robot's TCP and seen by the cameras. Prints the `--wobj` value for
+/// Align the vision frame with the robot's base from points known in both.
+///
+/// The vision frame (the work object) is aligned with the robot's base frame from three or
+/// more points touched by the robot's TCP and seen by the cameras. Prints the `--wobj` value for
 /// `check` and `export`, and each point's residual: the paper's main source of systematic error.
 ///
 /// The CSV has the header `x_wobj_mm,y_wobj_mm,z_wobj_mm,x_base_mm,y_base_mm,z_base_mm` and one

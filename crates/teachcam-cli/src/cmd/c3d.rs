@@ -60,11 +60,11 @@ pub struct ToolArgs {
     pub output: PathBuf,
 }
 
-/// Write the tool's markers (`<tool>:M0`, ...) and tip (`<tool>:tip`) in every frame of a
-/// trajectory as a C3D file (Intel, float storage, millimetres; residual = the registration
+/// Write the tool's markers (`<tool>:M0`, ...; registered, or measured with `--measured`) and
+/// tip (`<tool>:tip`) in every frame of a trajectory as a C3D file (Intel, float storage, millimetres; residual = the registration
 /// RMS in steps of 0.001 mm). Frames without a pose are gaps.
 ///
-/// Example: `teachcam c3d export smooth.csv --tool brush.json -o brush.c3d`
+/// Example: `teachcam c3d export raw.csv --tool brush.json --measured markers.csv -o brush.c3d`
 #[derive(Debug, clap::Args)]
 pub struct ExportArgs {
     /// The trajectory CSV.
@@ -72,6 +72,10 @@ pub struct ExportArgs {
     /// The tool (`tool.json`) whose markers to place.
     #[arg(long)]
     pub tool: PathBuf,
+    /// The measured markers (`teachcam track --markers-out`) to write instead of the
+    /// registered ones; the tip stays the registered tip.
+    #[arg(long)]
+    pub measured: Option<PathBuf>,
     /// The C3D file to write.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -165,7 +169,15 @@ fn print_json<T: Serialize>(value: &T) -> anyhow::Result<()> {
 fn run_export(args: &ExportArgs) -> anyhow::Result<()> {
     let trajectory = teachcam::io::trajectory::read_trajectory(&args.trajectory).rejected()?;
     let tool = teachcam::io::tool::read_tool(&args.tool).rejected()?;
-    let points = c3d::points_from_trajectory(&trajectory, &tool)
+    let points = match &args.measured {
+        None => c3d::points_from_trajectory(&trajectory, &tool),
+        Some(path) => {
+            let rate_hz = trajectory.sample_rate_hz().unwrap_or(1.0);
+            let measured = teachcam::vendor::read_markers_csv(path, rate_hz).rejected()?;
+            c3d::points_from_trajectory_and_measured(&trajectory, &tool, &measured)
+        }
+    };
+    let points = points
         .map_err(anyhow::Error::from)
         .with_context(|| args.trajectory.display().to_string())
         .rejected()?;

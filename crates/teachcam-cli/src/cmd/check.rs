@@ -14,7 +14,9 @@ use teachcam::robot::{Cell, TcpTarget, tcp_targets};
 
 use crate::Rejected;
 
-/// Check a trajectory on a robot: every frame reachable, joints inside their ranges, joint
+/// Check a trajectory on a robot: reach, joint limits, joint speeds, singularities.
+///
+/// Every frame must be reachable with the joints inside their ranges and the joint
 /// speeds within the data sheet's at the recorded timing, no configuration change; frames near
 /// the wrist singularity are reported as warnings. Prints a summary, every failing frame and
 /// suggestions (slow down by a factor, move the work object); exits with status 1 when the
@@ -55,6 +57,10 @@ pub struct CellArgs {
     /// Fraction of each axis's maximum speed the path may use (0 < f <= 1).
     #[arg(long, default_value_t = 1.0)]
     pub speed_fraction: f64,
+    /// Largest joint acceleration allowed on every axis, deg/s^2 (ABB publishes none; without
+    /// this flag accelerations are reported, not judged).
+    #[arg(long)]
+    pub max_acceleration_deg_s2: Option<f64>,
 }
 
 /// Everything `check` and `export` need, resolved from the arguments and files.
@@ -108,8 +114,14 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         ))
         .rejected();
     }
+    if let Some(a) = args.max_acceleration_deg_s2
+        && !(a.is_finite() && a > 0.0)
+    {
+        bail!("--max-acceleration-deg-s2 {a}: must be a positive number");
+    }
     let config = CheckConfig {
         speed_fraction: args.speed_fraction,
+        max_acceleration: args.max_acceleration_deg_s2.map(|a| [a.to_radians(); 6]),
         ..CheckConfig::default()
     };
     Ok(Resolved {

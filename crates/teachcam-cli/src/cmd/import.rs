@@ -12,9 +12,10 @@ use teachcam::vendor;
 
 use crate::{DataRejected, Rejected as _};
 
-/// Turn another tracker's markers (Vicon, Qualisys, OptiTrack, NDI) into the trajectory of a
-/// rigid tool: pick the tool's markers by label or by the distance-matrix identification of a
-/// `tool.json`, register the tool in every frame, and write the trajectory CSV (`teachcam
+/// Turn another tracker's markers (Vicon, Qualisys, OptiTrack, NDI) into a tool trajectory.
+///
+/// Picks the tool's markers by label or by the distance-matrix identification of a
+/// `tool.json`, registers the tool in every frame, and writes the trajectory CSV (`teachcam
 /// smooth` and `teachcam export` take it from there).
 ///
 /// With `--markers` and no `--tool`, the tool is built from the data itself (mean shape over
@@ -25,6 +26,7 @@ use crate::{DataRejected, Rejected as _};
 ///   `teachcam import c3d trial.c3d --tool probe.json --markers Probe1,Probe2,Probe3,Probe4 -o traj.csv`
 ///   `teachcam import c3d trial.c3d --markers Probe1,Probe2,Probe3 --tool-out probe.json -o traj.csv`
 ///   `teachcam import motive take.csv --tool brush.json -o traj.csv`
+///   `teachcam import markers markers.csv --fps 30 --markers M0,M1,M2,M3 --tool-out brush.json -o traj.csv`
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// File format: c3d, motive (OptiTrack Motive CSV) or qualisys (QTM TSV).
@@ -55,6 +57,9 @@ pub struct Args {
     /// Largest registration RMS of a pose, millimetres; worse frames become gaps.
     #[arg(long, default_value_t = TrackMarkersConfig::default().max_registration_rms_mm)]
     pub max_rms_mm: f64,
+    /// Frames per second of a `markers` file (the other formats carry their rate).
+    #[arg(long)]
+    pub fps: Option<f64>,
     /// The trajectory CSV to write.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -69,6 +74,8 @@ pub enum Format {
     Motive,
     /// Qualisys QTM 3D TSV export.
     Qualisys,
+    /// The identified 3-D markers of `teachcam track --markers-out` (needs `--fps`).
+    Markers,
 }
 
 /// `START..END` or `START..` (to the end), 0-based frames.
@@ -93,9 +100,15 @@ pub fn parse_frames(text: &str) -> Result<Range<usize>, String> {
     Ok(start..end)
 }
 
-/// Reads marker data in `format`.
-pub fn read_points(format: Format, file: &Path) -> anyhow::Result<PointData> {
+/// Reads marker data in `format`; `fps` is the rate of a `markers` file.
+pub fn read_points(format: Format, file: &Path, fps: Option<f64>) -> anyhow::Result<PointData> {
     let points = match format {
+        Format::Markers => {
+            let Some(fps) = fps else {
+                bail!("a markers file needs --fps");
+            };
+            vendor::read_markers_csv(file, fps).map_err(anyhow::Error::from)
+        }
         Format::C3d => c3d::read_file(file)
             .map(|c| c.points)
             .map_err(anyhow::Error::from),
@@ -107,7 +120,7 @@ pub fn read_points(format: Format, file: &Path) -> anyhow::Result<PointData> {
 
 /// Run `teachcam import`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let points = read_points(args.format, &args.file)?;
+    let points = read_points(args.format, &args.file, args.fps)?;
     let in_file = |e: c3d::C3dError| {
         let named = anyhow::Error::from(e).context(args.file.display().to_string());
         anyhow::Error::new(DataRejected(named))

@@ -8,7 +8,9 @@ use teachcam::robot::frames::{PivotConfig, pivot_calibration};
 
 use crate::Rejected;
 
-/// Pivot calibration: the tip's position in the tool frame (the `tip` of tool.json) from a
+/// Pivot calibration of the tool centre point.
+///
+/// Finds the tip's position in the tool frame (the `tip` of tool.json) from a
 /// tracked recording in which the tip rests on one point while the tool is turned about it.
 /// Refuses a recording with too little rotation about two independent axes.
 ///

@@ -7,7 +7,9 @@ use teachcam::sim::{Scenario, build_scene, write_scene};
 
 use crate::progress::Progress;
 
-/// Write a simulated recording: one folder per camera of 8-bit PNG frames, `recording.json`,
+/// Write a simulated recording with its ground truth.
+///
+/// Writes one folder per camera of 8-bit PNG frames, `recording.json`,
 /// `rig.json`, `tool.json`, the true trajectory `truth.csv` and the exact projection of every
 /// marker centre in every view `projections.csv`.
 ///
@@ -27,6 +29,9 @@ pub struct Args {
     /// Seed of the image noise and the random glints: the same seed gives the same files.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Write only the first N frames of the scenario.
+    #[arg(long)]
+    pub frames: Option<usize>,
 }
 
 /// Run the command.
@@ -39,7 +44,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             names.join(", ")
         )
     })?;
-    let scene = build_scene(scenario, args.seed);
+    let mut scene = build_scene(scenario, args.seed);
+    if let Some(frames) = args.frames {
+        if frames == 0 {
+            anyhow::bail!("--frames must be at least 1");
+        }
+        scene.truth.samples.truncate(frames);
+    }
     let progress = Progress::new("simulate", scene.truth.len() as u64);
     write_scene(&scene, &args.out, args.seed, &|| progress.tick())
         .with_context(|| format!("writing the simulation to {}", args.out.display()))?;

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use rand::SeedableRng;
-use teachcam::smooth::study::{StudyConfig, run_study};
+use teachcam::smooth::study::{StudyConfig, StudyResult, run_study};
 
 use crate::plot::{Panel, Series, YScale, write_png};
 
@@ -30,8 +30,8 @@ pub struct Args {
     pub noise_mm: f64,
 }
 
-/// Run the command.
-pub fn run(args: &Args) -> Result<()> {
+/// Runs the study and writes `study.csv` and `study.png` into `args.out`; prints nothing.
+pub fn write_study(args: &Args) -> Result<(StudyConfig, StudyResult)> {
     let config = StudyConfig {
         noise_std_mm: args.noise_mm,
         ..StudyConfig::default()
@@ -40,30 +40,6 @@ pub fn run(args: &Args) -> Result<()> {
     let result = run_study(&config, &mut rng)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-
-    println!(
-        "signal: {} at {} Hz, noise {} mm; raw RMS error {:.3} mm",
-        config
-            .sinusoids
-            .iter()
-            .map(|s| format!("{} mm @ {} Hz", s.amplitude_mm, s.frequency_hz))
-            .collect::<Vec<_>>()
-            .join(" + "),
-        config.sample_rate_hz,
-        config.noise_std_mm,
-        result.raw_rms_error_mm
-    );
-    println!("method    rms_error_mm  amplitude_kept (per sinusoid)  noise_kept");
-    for m in &result.methods {
-        let kept: Vec<String> = m.amplitude_kept.iter().map(|a| format!("{a:.3}")).collect();
-        println!(
-            "{:<9} {:>12.3}  {:<29}  {:.3}",
-            m.name,
-            m.rms_error_mm,
-            kept.join(" "),
-            m.noise_kept
-        );
-    }
 
     let mut csv = String::from("time_s,clean_mm,noisy_mm,noise_mm");
     for m in &result.methods {
@@ -131,6 +107,36 @@ pub fn run(args: &Args) -> Result<()> {
         });
     }
     write_png(&args.out.join("study.png"), &panels)?;
+    Ok((config, result))
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> Result<()> {
+    let (config, result) = write_study(args)?;
+    println!(
+        "signal: {} at {} Hz, noise {} mm; raw RMS error {:.3} mm",
+        config
+            .sinusoids
+            .iter()
+            .map(|s| format!("{} mm @ {} Hz", s.amplitude_mm, s.frequency_hz))
+            .collect::<Vec<_>>()
+            .join(" + "),
+        config.sample_rate_hz,
+        config.noise_std_mm,
+        result.raw_rms_error_mm
+    );
+    println!("method    rms_error_mm  amplitude_kept (per sinusoid)  noise_kept");
+    for m in &result.methods {
+        let kept: Vec<String> = m.amplitude_kept.iter().map(|a| format!("{a:.3}")).collect();
+        println!(
+            "{:<9} {:>12.3}  {:<29}  {:.3}",
+            m.name,
+            m.rms_error_mm,
+            kept.join(" "),
+            m.noise_kept
+        );
+    }
+
     println!(
         "wrote {} and {}",
         args.out.join("study.csv").display(),

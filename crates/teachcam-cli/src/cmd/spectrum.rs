@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use teachcam::io::trajectory::read_trajectory;
-use teachcam::smooth::{COMPONENTS, SmoothConfig, trajectory_spectrum};
+use teachcam::smooth::{COMPONENTS, ComponentSpectra, SmoothConfig, trajectory_spectrum};
 
 use crate::Rejected;
 use crate::plot::{Panel, Series, YScale, write_png};
@@ -40,40 +40,7 @@ pub fn run(args: &Args) -> Result<()> {
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("png"));
     if is_png {
-        let label = |c: usize| COMPONENTS[c].to_string();
-        // The DC bin (the mean position) dwarfs the rest: plot from the first bin on.
-        let f = &spectra.frequency_hz[1.min(spectra.frequency_hz.len())..];
-        let amplitude = |c: usize| &spectra.amplitude[c][1.min(spectra.amplitude[c].len())..];
-        let frames = format!("frames {}..={}", spectra.first_frame, spectra.last_frame);
-        let panels = vec![
-            Panel {
-                title: format!("position amplitude spectrum, {frames}"),
-                x_label: "frequency (Hz)".into(),
-                y_label: "amplitude (mm)".into(),
-                y_scale: YScale::Log,
-                series: (0..3)
-                    .map(|c| Series {
-                        label: label(c),
-                        x: f,
-                        y: amplitude(c),
-                    })
-                    .collect(),
-            },
-            Panel {
-                title: format!("rotation amplitude spectrum, {frames}"),
-                x_label: "frequency (Hz)".into(),
-                y_label: "amplitude (rad)".into(),
-                y_scale: YScale::Log,
-                series: (3..6)
-                    .map(|c| Series {
-                        label: label(c),
-                        x: f,
-                        y: amplitude(c),
-                    })
-                    .collect(),
-            },
-        ];
-        write_png(&args.output, &panels)
+        write_png(&args.output, &spectrum_panels(&spectra))
     } else {
         let mut text = String::from("frequency_hz");
         for c in COMPONENTS {
@@ -91,4 +58,42 @@ pub fn run(args: &Args) -> Result<()> {
         teachcam::io::write_atomically(&args.output, text.as_bytes())?;
         Ok(())
     }
+}
+
+/// The two panels of a spectrum figure (positions, rotations), without the DC bin.
+pub fn spectrum_panels(spectra: &ComponentSpectra) -> Vec<Panel<'_>> {
+    let label = |c: usize| COMPONENTS[c].to_string();
+    // The DC bin (the mean position) dwarfs the rest: plot from the first bin on.
+    let f = &spectra.frequency_hz[1.min(spectra.frequency_hz.len())..];
+    let amplitude = |c: usize| &spectra.amplitude[c][1.min(spectra.amplitude[c].len())..];
+    let frames = format!("frames {}..={}", spectra.first_frame, spectra.last_frame);
+    let panels = vec![
+        Panel {
+            title: format!("position amplitude spectrum, {frames}"),
+            x_label: "frequency (Hz)".into(),
+            y_label: "amplitude (mm)".into(),
+            y_scale: YScale::Log,
+            series: (0..3)
+                .map(|c| Series {
+                    label: label(c),
+                    x: f,
+                    y: amplitude(c),
+                })
+                .collect(),
+        },
+        Panel {
+            title: format!("rotation amplitude spectrum, {frames}"),
+            x_label: "frequency (Hz)".into(),
+            y_label: "amplitude (rad)".into(),
+            y_scale: YScale::Log,
+            series: (3..6)
+                .map(|c| Series {
+                    label: label(c),
+                    x: f,
+                    y: amplitude(c),
+                })
+                .collect(),
+        },
+    ];
+    panels
 }

@@ -8,7 +8,9 @@ use teachcam::metrology::tool_design;
 
 use crate::Rejected;
 
-/// Check a tool's marker layout: the identification margin (the two marker distances closest to
+/// Check a tool's marker layout before recording with it.
+///
+/// Reports the identification margin (the two marker distances closest to
 /// each other, against the identification tolerance), the expected tip error per unit marker
 /// error (Fitzpatrick–West–Maurer), and warnings. Prints JSON; exits 1 when the tool would be
 /// refused by `track`.

@@ -12,12 +12,15 @@ use teachcam::io::trajectory::write_trajectory;
 use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
 use teachcam::metrology::first_order;
 use teachcam::track::{FrameTrack, TrackConfig, Tracker};
+use teachcam::trajectory::Trajectory;
 
 use crate::Rejected;
 use crate::cmd::detect::detect_recording;
 use crate::progress::Progress;
 
-/// Track the tool through a recording: detect the marker blobs in every camera, match them
+/// Track the tool through a recording: its pose in every frame.
+///
+/// Detects the marker blobs in every camera, match them
 /// across cameras (the paper's trinocular loop), triangulate, identify the tool's markers by
 /// their distances, and register the tool (SVD, scale 1). Writes the contract's trajectory CSV:
 /// one row per frame, pose fields empty where the frame has no pose, plus `tip_std_mm`, the
@@ -69,6 +72,23 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let trajectory = track_to_files(args)?;
+    let tracked = trajectory
+        .samples
+        .iter()
+        .filter(|s| s.pose.is_some())
+        .count();
+    eprintln!(
+        "{tracked} of {} frames tracked -> {}",
+        trajectory.len(),
+        args.output.display()
+    );
+    Ok(())
+}
+
+/// Detects, tracks and writes the trajectory (and the optional files); prints nothing but a
+/// progress bar on a terminal.
+pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
     let mut config = TrackConfig::default();
@@ -147,16 +167,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(path) = &args.diagnostics {
         write_atomically(path, diagnostics_csv(&tracks).as_bytes())?;
     }
-    let tracked = trajectory
-        .samples
-        .iter()
-        .filter(|s| s.pose.is_some())
-        .count();
-    eprintln!(
-        "{tracked} of {frame_count} frames tracked -> {}",
-        args.output.display()
-    );
-    Ok(())
+    Ok(trajectory)
 }
 
 fn markers_csv(tracks: &[FrameTrack]) -> String {

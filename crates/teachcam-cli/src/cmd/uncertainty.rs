@@ -10,7 +10,9 @@ use teachcam::track::TrackConfig;
 
 use crate::Rejected;
 
-/// Tool-tip uncertainty at a pose: the markers are projected into every camera, Gaussian pixel
+/// Tool-tip uncertainty at a pose, by Monte Carlo through the tracking chain.
+///
+/// The markers are projected into every camera, Gaussian pixel
 /// noise is added, and each noisy copy runs through the real tracking chain (correspondence,
 /// triangulation, identification, registration). Prints JSON: `tip_std_mm` (x, y, z), `tip_rms_mm`,
 /// `position_std_mm`, `rotation_std_deg` (about world x, y, z), `failed_trials`, `tip_bias_mm`,

@@ -10,7 +10,9 @@ use teachcam::metrology::uncertainty_map;
 
 use crate::Rejected;
 
-/// Tip uncertainty over a horizontal grid of tool positions at one orientation, with all cameras
+/// Tip uncertainty over a grid of the working volume: where to work, where not.
+///
+/// Computed over a horizontal grid of tool positions at one orientation, with all cameras
 /// and with the worst single camera left out: where to work, where not. Writes CSV
 /// `x_mm,y_mm,z_mm,tip_rms_mm,tip_rms_one_camera_dropped_mm` (empty where the tool cannot be
 /// tracked).

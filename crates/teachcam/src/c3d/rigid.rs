@@ -366,3 +366,44 @@ pub fn points_from_tracks(
         .collect();
     PointData::new(labels, rate_hz, "mm".into(), &frames)
 }
+
+/// [`points_from_trajectory`] with the tool's *measured* markers in place of the registered
+/// ones: `measured` is `teachcam track --markers-out` as [`crate::vendor::read_markers_csv`]
+/// reads it (labels `M0`, `M1`, ... by marker id, frames as in the trajectory). A marker not
+/// identified in a frame is a gap; the tip stays the registered tip.
+///
+/// # Errors
+/// As [`points_from_trajectory`], and [`C3dError::BadValue`] when `measured` has more frames
+/// than the trajectory or markers the tool does not have.
+pub fn points_from_trajectory_and_measured(
+    trajectory: &Trajectory,
+    tool: &Tool,
+    measured: &PointData,
+) -> Result<PointData, C3dError> {
+    let mut points = points_from_trajectory(trajectory, tool)?;
+    let n = tool.markers_in_tool.len();
+    if measured.frame_count() > points.frame_count() || measured.marker_count() > n {
+        return Err(C3dError::BadValue {
+            field: "measured markers",
+            reason: format!(
+                "{} frames of {} markers for a trajectory of {} frames and a tool of {n}",
+                measured.frame_count(),
+                measured.marker_count(),
+                points.frame_count()
+            ),
+        });
+    }
+    let columns: Vec<Option<usize>> = (0..n)
+        .map(|k| measured.labels.iter().position(|l| *l == format!("M{k}")))
+        .collect();
+    let width = points.marker_count();
+    for frame in 0..points.frame_count() {
+        for (k, column) in columns.iter().enumerate() {
+            let sample = column
+                .and_then(|c| measured.sample(FrameIndex(frame), c))
+                .copied();
+            points.samples[frame * width + k] = sample;
+        }
+    }
+    Ok(points)
+}

@@ -39,8 +39,8 @@ impl Default for RapidConfig {
 /// Extra-axis values of a robot without external axes.
 const NO_EXTERNAL_AXES: &str = "[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]";
 
-/// Lowest speeds written, mm/s and °/s: RAPID refuses zero speeds; below these a move is
-/// slower than the recording, never faster.
+/// Lowest speeds written, mm/s and °/s: RAPID refuses zero speeds. A move slower than both
+/// (the brush dwelling) gets its recorded duration with `\T` instead.
 const MIN_TCP_SPEED: f64 = 0.01;
 const MIN_ORIENTATION_SPEED_DEG_S: f64 = 0.01;
 
@@ -121,9 +121,19 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
         let _ = writeln!(out, "\n  PROC path_{}()", r + 1);
         for i in range.clone() {
             let zone = if i == last { "fine" } else { zone };
+            let m = &program.moves[i];
+            // A move slower than the lowest speeds written (a dwell) keeps its recorded
+            // duration through the instruction's time argument `\T`.
+            let slow = m.tcp_speed < MIN_TCP_SPEED
+                && m.orientation_speed.to_degrees() < MIN_ORIENTATION_SPEED_DEG_S;
+            let time = if slow {
+                format!("\\T:={}", number(m.duration_s, 4))
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 out,
-                "    MoveL {}, {}, {zone}, {tool}\\WObj:={wobj};",
+                "    MoveL {}, {}{time}, {zone}, {tool}\\WObj:={wobj};",
                 target_name(i),
                 speed_name(i)
             );

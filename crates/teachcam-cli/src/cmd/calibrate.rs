@@ -1,0 +1,431 @@
+//! `teachcam calibrate intrinsics|rig`: chessboard photographs to a camera or a whole rig.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, anyhow, bail};
+use rayon::prelude::*;
+use teachcam::calib::chessboard::{CornerConfig, find_chessboard_corners, gray_like_opencv};
+use teachcam::calib::intrinsics::{IntrinsicsConfig, calibrate_intrinsics};
+use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig};
+use teachcam::calib::{BoardView, Chessboard};
+use teachcam::camera::{Camera, ImageSize};
+use teachcam::geometry::{CameraId, Pixel};
+use teachcam::io::camera_file::{
+    read_camera, write_camera_json, write_opencv_yaml, write_ros_yaml,
+};
+use teachcam::io::rig::write_rig;
+
+use crate::Rejected;
+
+/// Calibrate cameras from photographs of a chessboard.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    pub command: Calibrate,
+}
+
+/// What to calibrate.
+#[derive(Debug, clap::Subcommand)]
+pub enum Calibrate {
+    /// One camera's intrinsics and distortion (Zhang + Levenberg–Marquardt).
+    Intrinsics(IntrinsicsArgs),
+    /// All cameras of a rig in one world frame (+ bundle adjustment).
+    Rig(RigArgs),
+}
+
+/// The calibration target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pattern {
+    /// A chessboard; corners are the inner corners where four squares meet.
+    Chessboard,
+}
+
+/// The target options shared by both subcommands.
+#[derive(Debug, clap::Args)]
+pub struct PatternArgs {
+    /// The calibration target.
+    #[arg(long, value_enum, default_value_t = Pattern::Chessboard)]
+    pub pattern: Pattern,
+    /// Inner corners, `COLSxROWS` as OpenCV's `patternSize` (a board of 10x7 squares is `9x6`).
+    #[arg(long, value_parser = parse_inner)]
+    pub inner: (usize, usize),
+    /// Side of one square, millimetres.
+    #[arg(long)]
+    pub square: f64,
+}
+
+/// Output format of a single camera.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CameraFormat {
+    /// By the output's extension: `.json` → camera.json, `.yaml`/`.yml` → OpenCV YAML.
+    Auto,
+    /// The contract's camera.json (one rig camera object with `rms_px`).
+    Json,
+    /// OpenCV `FileStorage` YAML (`camera_matrix`, `distortion_coefficients`).
+    Opencv,
+    /// ROS `camera_info` YAML.
+    Ros,
+}
+
+/// One camera's intrinsics and distortion from chessboard photographs: corners found in each
+/// image (images without a complete board are named and skipped), Zhang's closed form, then
+/// Levenberg–Marquardt over fx, fy, cx, cy, k1, k2, p1, p2, k3 and every board pose. Prints the
+/// RMS reprojection error per image and names outlier images.
+///
+/// Example: `teachcam calibrate intrinsics --pattern chessboard --inner 9x6 --square 25 left*.jpg -o camera.json`
+#[derive(Debug, clap::Args)]
+pub struct IntrinsicsArgs {
+    #[command(flatten)]
+    pub pattern: PatternArgs,
+    /// Photographs of the board (8-bit; colour is converted to grey as OpenCV does).
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    /// Output camera file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = CameraFormat::Auto)]
+    pub format: CameraFormat,
+    /// Camera name written to the file (default: the output file's stem).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Keep k3 = 0 (OpenCV's CALIB_FIX_K3).
+    #[arg(long)]
+    pub fix_k3: bool,
+    /// Keep p1 = p2 = 0 (CALIB_ZERO_TANGENT_DIST).
+    #[arg(long)]
+    pub fix_tangential: bool,
+    /// Keep fy/fx at the closed form's ratio (CALIB_FIX_ASPECT_RATIO).
+    #[arg(long)]
+    pub fix_aspect_ratio: bool,
+}
+
+/// All cameras of a rig in one world frame. `IMAGES` holds one sub-folder per camera, named as
+/// the camera; images with the same file stem in several sub-folders show the same board
+/// placement at the same instant. The world frame is the board of `--world` (lying on the work
+/// object: x along its rows of corners, y along its columns, z into the board, origin at its
+/// first corner). Each camera's intrinsics come from `--intrinsics NAME=FILE` (camera.json,
+/// OpenCV or ROS YAML) or, when not given, from its own images. Then a bundle adjustment of all
+/// cameras and board poses; prints per-camera residuals and pose standard errors.
+///
+/// Example: `teachcam calibrate rig --pattern chessboard --inner 9x6 --square 40 calib/ --world table -o rig.json`
+#[derive(Debug, clap::Args)]
+pub struct RigArgs {
+    #[command(flatten)]
+    pub pattern: PatternArgs,
+    /// Folder with one sub-folder of images per camera.
+    pub images: PathBuf,
+    /// File stem of the view whose board sets the world frame.
+    #[arg(
+        long,
+        conflicts_with = "world_camera",
+        required_unless_present = "world_camera"
+    )]
+    pub world: Option<String>,
+    /// Or: this camera's frame is the world frame.
+    #[arg(long)]
+    pub world_camera: Option<String>,
+    /// Known intrinsics of a camera, `NAME=FILE`; repeat per camera.
+    #[arg(long, value_parser = parse_assignment)]
+    pub intrinsics: Vec<(String, PathBuf)>,
+    /// Refine every camera's intrinsics in the bundle adjustment too.
+    #[arg(long)]
+    pub refine_intrinsics: bool,
+    /// Output rig file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+fn parse_inner(text: &str) -> Result<(usize, usize), String> {
+    let (cols, rows) = text
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected COLSxROWS such as 9x6, got '{text}'"))?;
+    let parse = |t: &str| t.trim().parse::<usize>().ok().filter(|v| *v >= 2);
+    match (parse(cols), parse(rows)) {
+        (Some(c), Some(r)) => Ok((c, r)),
+        _ => Err(format!(
+            "expected COLSxROWS with both at least 2, got '{text}'"
+        )),
+    }
+}
+
+fn parse_assignment(text: &str) -> Result<(String, PathBuf), String> {
+    let (name, file) = text
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=FILE, got '{text}'"))?;
+    Ok((name.to_owned(), PathBuf::from(file)))
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    match &args.command {
+        Calibrate::Intrinsics(a) => run_intrinsics(a),
+        Calibrate::Rig(a) => run_rig(a),
+    }
+}
+
+fn board_of(pattern: &PatternArgs) -> anyhow::Result<Chessboard> {
+    if !(pattern.square.is_finite() && pattern.square > 0.0) {
+        bail!(
+            "--square must be a positive length in millimetres, got {}",
+            pattern.square
+        );
+    }
+    let (inner_cols, inner_rows) = pattern.inner;
+    Ok(Chessboard {
+        inner_cols,
+        inner_rows,
+        square_mm: pattern.square,
+    })
+}
+
+/// Corners of every image, in parallel, with the image size; `Err` per image that has no board.
+type Found = (PathBuf, Result<(ImageSize, Vec<Pixel>), String>);
+
+fn find_all(images: &[PathBuf], board: &Chessboard) -> Vec<Found> {
+    let config = CornerConfig::default();
+    images
+        .par_iter()
+        .map(|path| {
+            let result = image::open(path)
+                .map_err(|e| format!("cannot read the image: {e}"))
+                .and_then(|image| {
+                    let gray = gray_like_opencv(&image);
+                    let size = ImageSize {
+                        width: gray.width(),
+                        height: gray.height(),
+                    };
+                    find_chessboard_corners(&gray, board, &config)
+                        .map(|corners| (size, corners))
+                        .map_err(|e| e.to_string())
+                });
+            (path.clone(), result)
+        })
+        .collect()
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+fn run_intrinsics(args: &IntrinsicsArgs) -> anyhow::Result<()> {
+    let board = board_of(&args.pattern)?;
+    let found = find_all(&args.images, &board);
+    let mut views = Vec::new();
+    let mut size: Option<(ImageSize, PathBuf)> = None;
+    for (path, result) in found {
+        match result {
+            Ok((image_size, corners)) => {
+                if let Some((first, first_path)) = &size {
+                    if *first != image_size {
+                        return Err(anyhow!(
+                            "{}: {}x{} pixels, but {} is {}x{}",
+                            path.display(),
+                            image_size.width,
+                            image_size.height,
+                            first_path.display(),
+                            first.width,
+                            first.height
+                        ))
+                        .rejected();
+                    }
+                } else {
+                    size = Some((image_size, path.clone()));
+                }
+                views.push(BoardView {
+                    name: file_name(&path),
+                    corners,
+                });
+            }
+            Err(message) => println!("{}: skipped: {message}", path.display()),
+        }
+    }
+    let Some((image_size, _)) = size else {
+        return Err(anyhow!(
+            "no image shows a complete {}x{} chessboard",
+            board.inner_cols,
+            board.inner_rows
+        ))
+        .rejected();
+    };
+    let config = IntrinsicsConfig {
+        fix_k3: args.fix_k3,
+        fix_tangential: args.fix_tangential,
+        fix_aspect_ratio: args.fix_aspect_ratio,
+        ..IntrinsicsConfig::default()
+    };
+    let result = calibrate_intrinsics(&board.corners_in_board(), &views, image_size, &config)
+        .context("calibration")
+        .rejected()?;
+    let mut camera = result.camera.clone();
+    camera.name = args.name.clone().unwrap_or_else(|| {
+        args.output
+            .file_stem()
+            .map_or_else(|| "camera".to_owned(), |s| s.to_string_lossy().into_owned())
+    });
+    for view in &result.views {
+        let flag = if result.outlier_views.contains(&view.name) {
+            "  (outlier)"
+        } else {
+            ""
+        };
+        println!("{}: rms {:.4} px{flag}", view.name, view.rms_px);
+    }
+    let i = camera.intrinsics;
+    let se = result.standard_errors;
+    println!(
+        "fx {:.3} ± {:.3}, fy {:.3} ± {:.3}, cx {:.3} ± {:.3}, cy {:.3} ± {:.3} px; distortion {:?}",
+        i.fx,
+        se[0],
+        i.fy,
+        se[1],
+        i.cx,
+        se[2],
+        i.cy,
+        se[3],
+        camera.distortion.to_opencv()
+    );
+    println!(
+        "rms {:.4} px over {} images",
+        result.rms_px,
+        result.views.len()
+    );
+    // One standard error above 5 % of the focal length: the views do not pin the camera down.
+    if se[0] > 0.05 * i.fx || se[1] > 0.05 * i.fy {
+        println!(
+            "warning: the focal length is poorly determined (± {:.0} px): add views with the board tilted and filling more of the image",
+            se[0].max(se[1])
+        );
+    }
+    let format = match args.format {
+        CameraFormat::Auto => match args.output.extension().and_then(|e| e.to_str()) {
+            Some("yaml" | "yml") => CameraFormat::Opencv,
+            _ => CameraFormat::Json,
+        },
+        other => other,
+    };
+    match format {
+        CameraFormat::Opencv => write_opencv_yaml(&args.output, &camera, result.rms_px)?,
+        CameraFormat::Ros => write_ros_yaml(&args.output, &camera)?,
+        CameraFormat::Json | CameraFormat::Auto => {
+            write_camera_json(&args.output, &camera, result.rms_px)?
+        }
+    }
+    Ok(())
+}
+
+fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
+    let board = board_of(&args.pattern)?;
+    // Camera sub-folders, sorted by name; each camera's images sorted by file name.
+    let mut folders: Vec<PathBuf> = std::fs::read_dir(&args.images)
+        .with_context(|| format!("cannot read the folder {}", args.images.display()))
+        .rejected()?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| p.is_dir())
+        .collect();
+    folders.sort();
+    if folders.is_empty() {
+        return Err(anyhow!("{}: no camera sub-folders", args.images.display())).rejected();
+    }
+    let known: BTreeMap<&str, &PathBuf> = args
+        .intrinsics
+        .iter()
+        .map(|(n, p)| (n.as_str(), p))
+        .collect();
+    let corners = board.corners_in_board();
+    let mut cameras: Vec<Camera> = Vec::new();
+    let mut observations = Vec::new();
+    for (c, folder) in folders.iter().enumerate() {
+        let name = file_name(folder);
+        let mut images: Vec<PathBuf> = std::fs::read_dir(folder)
+            .with_context(|| format!("cannot read the folder {}", folder.display()))
+            .rejected()?
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .filter(|p| p.is_file())
+            .collect();
+        images.sort();
+        let mut views = Vec::new();
+        let mut size = None;
+        for (path, result) in find_all(&images, &board) {
+            match result {
+                Ok((image_size, found)) => {
+                    size = Some(image_size);
+                    let view = path
+                        .file_stem()
+                        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+                    observations.push(RigObservation {
+                        camera: CameraId(c),
+                        view: view.clone(),
+                        corners: found.clone(),
+                    });
+                    views.push(BoardView {
+                        name: view,
+                        corners: found,
+                    });
+                }
+                Err(message) => println!("{}: skipped: {message}", path.display()),
+            }
+        }
+        let camera = if let Some(file) = known.get(name.as_str()) {
+            let mut camera = read_camera(file).rejected()?.camera;
+            camera.name = name.clone();
+            camera
+        } else {
+            let Some(image_size) = size else {
+                return Err(anyhow!("camera {name}: no image shows a complete board")).rejected();
+            };
+            let result =
+                calibrate_intrinsics(&corners, &views, image_size, &IntrinsicsConfig::default())
+                    .with_context(|| format!("camera {name}: intrinsics"))
+                    .rejected()?;
+            println!(
+                "{name}: intrinsics from {} images, rms {:.4} px",
+                views.len(),
+                result.rms_px
+            );
+            let mut camera = result.camera;
+            camera.name = name.clone();
+            camera
+        };
+        cameras.push(camera);
+    }
+    for name in known.keys() {
+        if !cameras.iter().any(|c| c.name == *name) {
+            return Err(anyhow!("--intrinsics {name}: no sub-folder of that name")).rejected();
+        }
+    }
+    let world = match (&args.world, &args.world_camera) {
+        (Some(view), _) => WorldFrame::Board(view.clone()),
+        (None, Some(name)) => {
+            let c = cameras
+                .iter()
+                .position(|c| &c.name == name)
+                .ok_or_else(|| anyhow!("--world-camera {name}: no camera of that name"))
+                .rejected()?;
+            WorldFrame::Camera(CameraId(c))
+        }
+        (None, None) => bail!("give --world VIEW or --world-camera NAME"),
+    };
+    let config = RigConfig {
+        refine_intrinsics: args.refine_intrinsics,
+        ..RigConfig::default()
+    };
+    let result = calibrate_rig(&corners, &cameras, &observations, &world, &config)
+        .context("rig calibration")
+        .rejected()?;
+    for camera in &result.cameras {
+        println!(
+            "{}: {} views, rms {:.4} px, centre ± {:.3} mm, rotation ± {:.4}°",
+            camera.name, camera.views, camera.rms_px, camera.centre_std_mm, camera.rotation_std_deg
+        );
+    }
+    println!("rms {:.4} px", result.rms_px);
+    write_rig(&args.output, &result.rig)?;
+    Ok(())
+}

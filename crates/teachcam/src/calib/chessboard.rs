@@ -1,0 +1,764 @@
+//! Chessboard inner corners in a photograph, refined to sub-pixel, in OpenCV's order.
+//!
+//! Pipeline:
+//! 1. **Saddle response** (ChESS, Bennett & Lasenby 2014): on a 16-sample ring of radius
+//!    5 px around each pixel, an X-junction has opposite samples alike and quarter-turn
+//!    samples unlike, `R = Σ|I_n + I_{n+8} - I_{n+4} - I_{n+12}| - Σ|I_n - I_{n+8}|
+//!    - 16 |ring mean - local mean|`; edges and blobs score low. Local maxima are candidates.
+//! 2. **Grid growth**: from a seed whose four nearest candidates form two opposite pairs, walk
+//!    the lattice by linear extrapolation, taking the nearest candidate within a fraction of
+//!    the step. A board is found when a fully populated `cols x rows` window exists whose
+//!    squares alternate dark/bright (a photograph of a real board, not a lattice of clutter).
+//! 3. **Order** as `cv2.findChessboardCorners` returns it (checked one to one on OpenCV's
+//!    sample images): rows of `cols` corners; walking a row then stepping to the next row turns
+//!    clockwise on screen (y down); the square between corners 0, 1, `cols`, `cols + 1` is dark.
+//! 4. **Sub-pixel**: OpenCV's `cornerSubPix` (Förstner): the corner `q` minimises
+//!    `Σ w(p) (∇I(p) · (p - q))²` over a window, iterated with bilinear resampling.
+//!
+//! A partial, blurred or absent board is refused with [`ChessboardError`], never guessed.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use image::GrayImage;
+
+use crate::geometry::Pixel;
+
+use super::Chessboard;
+
+/// Options of [`find_chessboard_corners`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CornerConfig {
+    /// Half size of the sub-pixel window, pixels (OpenCV's `winSize`); 11, as in OpenCV's
+    /// calibration tutorial, searches a 23x23 window.
+    pub subpix_half_window_px: usize,
+    /// Sub-pixel iterations at most; 30 as in OpenCV's calibration tutorial.
+    pub subpix_max_iterations: usize,
+    /// Sub-pixel refinement stops when a step is shorter than this, pixels; 0.001 as in
+    /// OpenCV's calibration tutorial.
+    pub subpix_epsilon_px: f64,
+    /// Saddle candidates weaker than this fraction of the strongest are ignored; 0.04 keeps
+    /// the corners of a dim, tilted board and drops sensor noise.
+    pub min_relative_response: f64,
+    /// A lattice step accepts the nearest candidate within this fraction of the predicted
+    /// step; 0.35 tolerates strong perspective without jumping to a diagonal neighbour.
+    pub step_tolerance: f64,
+}
+
+impl Default for CornerConfig {
+    fn default() -> Self {
+        Self {
+            subpix_half_window_px: 11,
+            subpix_max_iterations: 30,
+            subpix_epsilon_px: 0.001,
+            min_relative_response: 0.04,
+            step_tolerance: 0.35,
+        }
+    }
+}
+
+/// Why no board was returned for an image.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ChessboardError {
+    /// The image has no X-junctions at all (blank, blurred or too small).
+    #[error("no chessboard corners in the image (no saddle points)")]
+    NoSaddles,
+    /// Saddles were found but no complete lattice of the requested size.
+    #[error(
+        "no complete {cols}x{rows} chessboard found (largest lattice {found} corners, {candidates} candidates)"
+    )]
+    NotFound {
+        /// Inner corners per row asked for.
+        cols: usize,
+        /// Inner corner rows asked for.
+        rows: usize,
+        /// Corners in the largest lattice grown.
+        found: usize,
+        /// Saddle candidates in the image.
+        candidates: usize,
+    },
+    /// The image is smaller than the detector's ring.
+    #[error("image of {width}x{height} pixels is too small for corner detection")]
+    TooSmall {
+        /// Columns.
+        width: u32,
+        /// Rows.
+        height: u32,
+    },
+}
+
+/// Gray levels as OpenCV computes them (`cvtColor`, `IMREAD_GRAYSCALE`): ITU-R BT.601 luma
+/// `Y = 0.299 R + 0.587 G + 0.114 B` in OpenCV's 14-bit fixed point, so that corners match
+/// OpenCV's on colour photographs too (the `image` crate's `to_luma8` uses BT.709 weights).
+#[must_use]
+pub fn gray_like_opencv(image: &image::DynamicImage) -> GrayImage {
+    if let image::DynamicImage::ImageLuma8(gray) = image {
+        return gray.clone();
+    }
+    let rgb = image.to_rgb8();
+    let (width, height) = rgb.dimensions();
+    let data = rgb
+        .pixels()
+        .map(|p| {
+            let [r, g, b] = p.0;
+            ((u32::from(r) * 4899 + u32::from(g) * 9617 + u32::from(b) * 1868 + 8192) >> 14) as u8
+        })
+        .collect();
+    GrayImage::from_raw(width, height, data).unwrap_or_else(|| image.to_luma8())
+}
+
+/// Ring of 16 samples at radius 5 px, a quarter turn every 4 samples.
+const RING: [(i32, i32); 16] = [
+    (5, 0),
+    (5, 2),
+    (4, 4),
+    (2, 5),
+    (0, 5),
+    (-2, 5),
+    (-4, 4),
+    (-5, 2),
+    (-5, 0),
+    (-5, -2),
+    (-4, -4),
+    (-2, -5),
+    (0, -5),
+    (2, -5),
+    (4, -4),
+    (5, -2),
+];
+const RING_RADIUS: i32 = 5;
+
+/// Ring of 16 samples at radius 3 px, for boards whose squares are under about 20 px.
+const SMALL_RING: [(i32, i32); 16] = [
+    (3, 0),
+    (3, 1),
+    (2, 2),
+    (1, 3),
+    (0, 3),
+    (-1, 3),
+    (-2, 2),
+    (-3, 1),
+    (-3, 0),
+    (-3, -1),
+    (-2, -2),
+    (-1, -3),
+    (0, -3),
+    (1, -3),
+    (2, -2),
+    (3, -1),
+];
+
+/// A gray image as `f32`, row-major.
+struct Plane {
+    width: usize,
+    height: usize,
+    data: Vec<f32>,
+}
+
+impl Plane {
+    fn from_gray(image: &GrayImage) -> Self {
+        Self {
+            width: image.width() as usize,
+            height: image.height() as usize,
+            data: image.as_raw().iter().map(|&v| f32::from(v)).collect(),
+        }
+    }
+
+    fn at(&self, x: usize, y: usize) -> f32 {
+        self.data[y * self.width + x]
+    }
+
+    /// Separable [1 2 1]/4 smoothing, edges replicated.
+    fn smoothed(&self) -> Self {
+        let (w, h) = (self.width, self.height);
+        let mut tmp = vec![0.0; w * h];
+        for y in 0..h {
+            let row = &self.data[y * w..(y + 1) * w];
+            for x in 0..w {
+                let l = row[x.saturating_sub(1)];
+                let r = row[(x + 1).min(w - 1)];
+                tmp[y * w + x] = 0.25 * (l + 2.0 * row[x] + r);
+            }
+        }
+        let mut data = vec![0.0; w * h];
+        for y in 0..h {
+            let up = y.saturating_sub(1);
+            let down = (y + 1).min(h - 1);
+            for x in 0..w {
+                data[y * w + x] =
+                    0.25 * (tmp[up * w + x] + 2.0 * tmp[y * w + x] + tmp[down * w + x]);
+            }
+        }
+        Self {
+            width: w,
+            height: h,
+            data,
+        }
+    }
+
+    /// Bilinear sample with edges replicated (OpenCV `getRectSubPix` semantics).
+    fn bilinear(&self, x: f64, y: f64) -> f64 {
+        let max_x = (self.width - 1) as f64;
+        let max_y = (self.height - 1) as f64;
+        let xc = x.clamp(0.0, max_x);
+        let yc = y.clamp(0.0, max_y);
+        let x0 = xc.floor();
+        let y0 = yc.floor();
+        let ax = xc - x0;
+        let ay = yc - y0;
+        let (ix, iy) = (x0 as usize, y0 as usize);
+        let ix1 = (ix + 1).min(self.width - 1);
+        let iy1 = (iy + 1).min(self.height - 1);
+        let top = f64::from(self.at(ix, iy)) * (1.0 - ax) + f64::from(self.at(ix1, iy)) * ax;
+        let bottom = f64::from(self.at(ix, iy1)) * (1.0 - ax) + f64::from(self.at(ix1, iy1)) * ax;
+        top * (1.0 - ay) + bottom * ay
+    }
+}
+
+/// A saddle candidate: integer position and response.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    x: f64,
+    y: f64,
+    response: f32,
+}
+
+/// The inner corners of `board` in `image`, in OpenCV's order (rows of `board.inner_cols`),
+/// refined to sub-pixel.
+///
+/// # Errors
+/// [`ChessboardError`] when the image holds no complete board of that size.
+pub fn find_chessboard_corners(
+    image: &GrayImage,
+    board: &Chessboard,
+    config: &CornerConfig,
+) -> Result<Vec<Pixel>, ChessboardError> {
+    let min_side = 2 * (RING_RADIUS as u32) + 3;
+    if image.width() < min_side || image.height() < min_side {
+        return Err(ChessboardError::TooSmall {
+            width: image.width(),
+            height: image.height(),
+        });
+    }
+    let raw = Plane::from_gray(image);
+    let smooth = raw.smoothed();
+    let candidates = saddle_candidates(&smooth, config);
+    if candidates.is_empty() {
+        return Err(ChessboardError::NoSaddles);
+    }
+    let (cols, rows) = (board.inner_cols, board.inner_rows);
+    let mut largest = 0;
+    // Seeds in order of response: a real board's corners are the strongest saddles.
+    for seed in 0..candidates.len().min(64) {
+        let Some(lattice) = grow_lattice(&candidates, seed, 3 * cols * rows, config) else {
+            continue;
+        };
+        largest = largest.max(lattice.len());
+        if lattice.len() < cols * rows {
+            continue;
+        }
+        if let Some(grid) = board_window(&lattice, &candidates, &smooth, cols, rows) {
+            return Ok(refine_grid(&raw, &grid, cols, config));
+        }
+    }
+    Err(ChessboardError::NotFound {
+        cols,
+        rows,
+        found: largest,
+        candidates: candidates.len(),
+    })
+}
+
+/// ChESS responses, non-maximum suppressed over a 7x7 neighbourhood, strongest first.
+fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
+    let (w, h) = (plane.width, plane.height);
+    let r = RING_RADIUS as usize;
+    let mut response = vec![0.0f32; w * h];
+    let mut max_response = 0.0f32;
+    // Row slices per ring sample, so the inner loop indexes plain slices by x - r.
+    let rows_of = |ring: &[(i32, i32); 16], y: usize| -> [&[f32]; 16] {
+        std::array::from_fn(|k| {
+            let (dx, dy) = ring[k];
+            let start =
+                (y as i64 + i64::from(dy)) as usize * w + (r as i64 + i64::from(dx)) as usize;
+            &plane.data[start..]
+        })
+    };
+    for y in r..h - r {
+        let big = rows_of(&RING, y);
+        let small = rows_of(&SMALL_RING, y);
+        let above = &plane.data[(y - 1) * w..y * w];
+        let here = &plane.data[y * w..(y + 1) * w];
+        let below = &plane.data[(y + 1) * w..(y + 2) * w];
+        for x in r..w - r {
+            let local_mean = (here[x] + here[x - 1] + here[x + 1] + above[x] + below[x]) / 5.0;
+            // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
+            let ring_big: [f32; 16] = std::array::from_fn(|k| big[k][x - r]);
+            let ring_small: [f32; 16] = std::array::from_fn(|k| small[k][x - r]);
+            let value =
+                chess_response(&ring_big, local_mean).max(chess_response(&ring_small, local_mean));
+            if value > 0.0 {
+                response[y * w + x] = value;
+                max_response = max_response.max(value);
+            }
+        }
+    }
+    if max_response <= 0.0 {
+        return Vec::new();
+    }
+    let threshold = max_response * config.min_relative_response as f32;
+    let nms = 3usize;
+    let mut candidates = Vec::new();
+    for y in r..h - r {
+        for x in r..w - r {
+            let value = response[y * w + x];
+            if value <= threshold {
+                continue;
+            }
+            let mut is_max = true;
+            'window: for yy in y.saturating_sub(nms)..=(y + nms).min(h - 1) {
+                for xx in x.saturating_sub(nms)..=(x + nms).min(w - 1) {
+                    let other = response[yy * w + xx];
+                    // Ties go to the first in raster order, so a plateau yields one candidate.
+                    if other > value || (other == value && (yy, xx) < (y, x)) {
+                        is_max = false;
+                        break 'window;
+                    }
+                }
+            }
+            if is_max {
+                // Centre of mass of the response around the maximum: a better start for
+                // the lattice walk than the integer pixel.
+                let (mut sx, mut sy, mut sw) = (0.0, 0.0, 0.0);
+                for yy in y - 1..=y + 1 {
+                    for xx in x - 1..=x + 1 {
+                        let v = f64::from(response[yy * w + xx]);
+                        sx += v * xx as f64;
+                        sy += v * yy as f64;
+                        sw += v;
+                    }
+                }
+                candidates.push(Candidate {
+                    x: sx / sw,
+                    y: sy / sw,
+                    response: value,
+                });
+            }
+        }
+    }
+    candidates.sort_by(|a, b| b.response.total_cmp(&a.response));
+    candidates
+}
+
+/// ChESS response of a 16-sample ring around a pixel whose 5-pixel cross averages
+/// `local_mean`.
+fn chess_response(ring: &[f32; 16], local_mean: f32) -> f32 {
+    let mut sum_response = 0.0;
+    for n in 0..4 {
+        sum_response += (ring[n] + ring[n + 8] - ring[n + 4] - ring[n + 12]).abs();
+    }
+    let mut diff_response = 0.0;
+    for n in 0..8 {
+        diff_response += (ring[n] - ring[n + 8]).abs();
+    }
+    let ring_mean = ring.iter().sum::<f32>() / 16.0;
+    sum_response - diff_response - 16.0 * (ring_mean - local_mean).abs()
+}
+
+fn distance2(a: &Candidate, bx: f64, by: f64) -> f64 {
+    (a.x - bx).powi(2) + (a.y - by).powi(2)
+}
+
+/// The candidate nearest to `(x, y)` within `radius`, excluding `used` ones.
+fn nearest(candidates: &[Candidate], x: f64, y: f64, radius: f64, used: &[bool]) -> Option<usize> {
+    let mut best = None;
+    let mut best_d2 = radius * radius;
+    for (i, c) in candidates.iter().enumerate() {
+        if used[i] {
+            continue;
+        }
+        let d2 = distance2(c, x, y);
+        if d2 < best_d2 {
+            best_d2 = d2;
+            best = Some(i);
+        }
+    }
+    best
+}
+
+/// Lattice coordinates `(i, j)` → candidate index.
+type Lattice = BTreeMap<(i32, i32), usize>;
+
+/// Grows the lattice through `seed`; `None` when the seed does not look like a lattice node.
+fn grow_lattice(
+    candidates: &[Candidate],
+    seed: usize,
+    max_nodes: usize,
+    config: &CornerConfig,
+) -> Option<Lattice> {
+    let s = candidates[seed];
+    let mut near: Vec<(f64, usize)> = candidates
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| i != seed)
+        .map(|(i, c)| (distance2(c, s.x, s.y), i))
+        .collect();
+    if near.len() < 4 {
+        return None;
+    }
+    near.select_nth_unstable_by(3, |a, b| a.0.total_cmp(&b.0));
+    near.truncate(4);
+    let d: Vec<(f64, f64)> = near
+        .iter()
+        .map(|&(_, i)| (candidates[i].x - s.x, candidates[i].y - s.y))
+        .collect();
+    // Pair the four neighbours into two opposite pairs: (0, k) and the remaining two.
+    let opposite = |a: (f64, f64), b: (f64, f64)| {
+        let gap = (a.0 + b.0).hypot(a.1 + b.1);
+        gap < config.step_tolerance * a.0.hypot(a.1).max(b.0.hypot(b.1))
+    };
+    let mut axes = None;
+    for k in 1..4 {
+        let rest: Vec<usize> = (1..4).filter(|&m| m != k).collect();
+        if opposite(d[0], d[k]) && opposite(d[rest[0]], d[rest[1]]) {
+            axes = Some((d[0], d[rest[0]]));
+            break;
+        }
+    }
+    let (u, v) = axes?;
+    let sine = (u.0 * v.1 - u.1 * v.0) / (u.0.hypot(u.1) * v.0.hypot(v.1));
+    if sine.abs() < 0.5 {
+        return None;
+    }
+
+    let mut lattice = Lattice::new();
+    let mut used = vec![false; candidates.len()];
+    // Per node: the last step seen along i and along j.
+    let mut steps: BTreeMap<(i32, i32), [(f64, f64); 2]> = BTreeMap::new();
+    lattice.insert((0, 0), seed);
+    used[seed] = true;
+    steps.insert((0, 0), [u, v]);
+    let mut queue = VecDeque::from([(0i32, 0i32)]);
+    while let Some((i, j)) = queue.pop_front() {
+        if lattice.len() >= max_nodes {
+            // Grown over clutter or a weak-response field: no board of this size here.
+            return None;
+        }
+        let p = candidates[lattice[&(i, j)]];
+        let node_steps = steps[&(i, j)];
+        for (axis, sign) in [(0usize, 1i32), (0, -1), (1, 1), (1, -1)] {
+            let (di, dj) = if axis == 0 { (sign, 0) } else { (0, sign) };
+            let target = (i + di, j + dj);
+            if lattice.contains_key(&target) {
+                continue;
+            }
+            // Extrapolate from the node behind when there is one (follows perspective).
+            let step = match lattice.get(&(i - di, j - dj)) {
+                Some(&behind) => (p.x - candidates[behind].x, p.y - candidates[behind].y),
+                None => {
+                    let base = node_steps[axis];
+                    (base.0 * f64::from(sign), base.1 * f64::from(sign))
+                }
+            };
+            let radius = config.step_tolerance * step.0.hypot(step.1);
+            let (x, y) = (p.x + step.0, p.y + step.1);
+            let Some(found) = nearest(candidates, x, y, radius, &used) else {
+                continue;
+            };
+            used[found] = true;
+            lattice.insert(target, found);
+            let actual = (
+                (candidates[found].x - p.x) * f64::from(sign),
+                (candidates[found].y - p.y) * f64::from(sign),
+            );
+            let mut new_steps = node_steps;
+            new_steps[axis] = actual;
+            steps.insert(target, new_steps);
+            queue.push_back(target);
+        }
+    }
+    Some(lattice)
+}
+
+/// The board inside a grown lattice: a fully populated `cols x rows` window (either way
+/// round) whose squares alternate in brightness, ordered as OpenCV orders it.
+fn board_window(
+    lattice: &Lattice,
+    candidates: &[Candidate],
+    plane: &Plane,
+    cols: usize,
+    rows: usize,
+) -> Option<Vec<Pixel>> {
+    let i_min = lattice.keys().map(|k| k.0).min()?;
+    let i_max = lattice.keys().map(|k| k.0).max()?;
+    let j_min = lattice.keys().map(|k| k.1).min()?;
+    let j_max = lattice.keys().map(|k| k.1).max()?;
+    let mut found: Option<Vec<Vec<Pixel>>> = None;
+    for (span_i, span_j) in [(cols, rows), (rows, cols)] {
+        let (span_i, span_j) = (span_i as i32, span_j as i32);
+        for i0 in i_min..=i_max - span_i + 1 {
+            for j0 in j_min..=j_max - span_j + 1 {
+                // grid[b][a]: a along i, b along j.
+                let mut grid = Vec::with_capacity(span_j as usize);
+                let mut complete = true;
+                for b in 0..span_j {
+                    let mut row = Vec::with_capacity(span_i as usize);
+                    for a in 0..span_i {
+                        match lattice.get(&(i0 + a, j0 + b)) {
+                            Some(&c) => row.push(Pixel::new(candidates[c].x, candidates[c].y)),
+                            None => {
+                                complete = false;
+                                break;
+                            }
+                        }
+                    }
+                    if !complete {
+                        break;
+                    }
+                    grid.push(row);
+                }
+                if !complete || !alternates(&grid, plane) {
+                    continue;
+                }
+                let grid = if span_i as usize == cols {
+                    grid
+                } else {
+                    transpose(&grid)
+                };
+                if found.is_some() {
+                    // Two boards or a lattice of clutter: refuse rather than guess.
+                    return None;
+                }
+                found = Some(grid);
+            }
+        }
+        if cols == rows {
+            break;
+        }
+    }
+    found.map(|grid| opencv_order(grid, plane))
+}
+
+fn transpose(grid: &[Vec<Pixel>]) -> Vec<Vec<Pixel>> {
+    let rows = grid.len();
+    let cols = grid.first().map_or(0, Vec::len);
+    (0..cols)
+        .map(|c| (0..rows).map(|r| grid[r][c]).collect())
+        .collect()
+}
+
+/// Mean brightness at the centre of square `(r, c)` of a corner grid.
+fn square_brightness(grid: &[Vec<Pixel>], plane: &Plane, r: usize, c: usize) -> f64 {
+    let x = 0.25 * (grid[r][c].x + grid[r][c + 1].x + grid[r + 1][c].x + grid[r + 1][c + 1].x);
+    let y = 0.25 * (grid[r][c].y + grid[r][c + 1].y + grid[r + 1][c].y + grid[r + 1][c + 1].y);
+    plane.bilinear(x, y)
+}
+
+/// Signed mean contrast of the squares whose index sum is even against their neighbours:
+/// negative when those squares are the dark ones.
+fn parity_contrast(grid: &[Vec<Pixel>], plane: &Plane) -> (f64, usize, usize) {
+    let rows = grid.len() - 1;
+    let cols = grid[0].len() - 1;
+    let mut agree = 0;
+    let mut pairs = 0;
+    let mut contrast = 0.0;
+    for r in 0..rows {
+        for c in 0..cols {
+            let here = square_brightness(grid, plane, r, c);
+            let sign = if (r + c) % 2 == 0 { 1.0 } else { -1.0 };
+            for (rr, cc) in [(r + 1, c), (r, c + 1)] {
+                if rr >= rows || cc >= cols {
+                    continue;
+                }
+                let diff = sign * (here - square_brightness(grid, plane, rr, cc));
+                contrast += diff;
+                pairs += 1;
+                if diff != 0.0 {
+                    agree += 1;
+                }
+            }
+        }
+    }
+    (contrast / pairs.max(1) as f64, agree, pairs)
+}
+
+/// True when neighbouring squares of the grid differ in brightness with one consistent sign
+/// (uneven light shifts both squares of a pair alike and keeps the sign).
+fn alternates(grid: &[Vec<Pixel>], plane: &Plane) -> bool {
+    let rows = grid.len() - 1;
+    let cols = grid[0].len() - 1;
+    let mut positive = 0usize;
+    let mut negative = 0usize;
+    for r in 0..rows {
+        for c in 0..cols {
+            let here = square_brightness(grid, plane, r, c);
+            let sign = if (r + c) % 2 == 0 { 1.0 } else { -1.0 };
+            for (rr, cc) in [(r + 1, c), (r, c + 1)] {
+                if rr >= rows || cc >= cols {
+                    continue;
+                }
+                let diff = sign * (here - square_brightness(grid, plane, rr, cc));
+                if diff > 0.0 {
+                    positive += 1;
+                } else if diff < 0.0 {
+                    negative += 1;
+                }
+            }
+        }
+    }
+    let pairs = positive + negative;
+    // One square pair in ten may disagree (glare, a pen mark); a clutter lattice has no rule.
+    pairs > 0 && positive.max(negative) * 10 >= pairs * 9
+}
+
+/// OpenCV's order: a row then the next row turn clockwise on screen, and the first square
+/// (corners 0, 1, cols, cols + 1) is dark.
+fn opencv_order(mut grid: Vec<Vec<Pixel>>, plane: &Plane) -> Vec<Pixel> {
+    let cross = |g: &[Vec<Pixel>]| {
+        let (p0, p1, p2) = (g[0][0], g[0][1], g[1][0]);
+        (p1.x - p0.x) * (p2.y - p0.y) - (p1.y - p0.y) * (p2.x - p0.x)
+    };
+    if cross(&grid) < 0.0 {
+        for row in &mut grid {
+            row.reverse();
+        }
+    }
+    let (contrast, _, _) = parity_contrast(&grid, plane);
+    if contrast > 0.0 {
+        // Square (0, 0) is bright: turn the board half a turn (keeps the handedness).
+        grid.reverse();
+        for row in &mut grid {
+            row.reverse();
+        }
+    }
+    grid.into_iter().flatten().collect()
+}
+
+/// Sub-pixel corners: first with a window a quarter of the local square (so that no other
+/// corner falls inside it, as OpenCV refines inside `findChessboardCorners`), then with the
+/// configured window.
+fn refine_grid(plane: &Plane, grid: &[Pixel], cols: usize, config: &CornerConfig) -> Vec<Pixel> {
+    grid.iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let (r, c) = (k / cols, k % cols);
+            let rows = grid.len() / cols;
+            let mut square = f64::INFINITY;
+            for (rr, cc) in [
+                (r.wrapping_sub(1), c),
+                (r + 1, c),
+                (r, c.wrapping_sub(1)),
+                (r, c + 1),
+            ] {
+                if rr < rows && cc < cols {
+                    square = square.min(p.distance(&grid[rr * cols + cc]));
+                }
+            }
+            let coarse_half =
+                ((square / 4.0).round() as usize).clamp(2, config.subpix_half_window_px);
+            let coarse = corner_subpix(plane, *p, coarse_half, config);
+            corner_subpix(plane, coarse, config.subpix_half_window_px, config)
+        })
+        .collect()
+}
+
+/// OpenCV's `cornerSubPix` with no dead zone: iterate
+/// `q ← (Σ w g gᵀ)⁻¹ Σ w g gᵀ p` over a `(2h+1)²` window resampled around `q`.
+fn corner_subpix(
+    plane: &Plane,
+    start: Pixel,
+    half_window_px: usize,
+    config: &CornerConfig,
+) -> Pixel {
+    let half = half_window_px as i32;
+    let side = (2 * half + 1) as usize;
+    let buffer_side = side + 2;
+    let mut mask = vec![0.0f64; side * side];
+    for i in 0..side {
+        let y = f64::from(i as i32 - half) / f64::from(half.max(1));
+        for j in 0..side {
+            let x = f64::from(j as i32 - half) / f64::from(half.max(1));
+            mask[i * side + j] = (-y * y).exp() * (-x * x).exp();
+        }
+    }
+    let eps2 = config.subpix_epsilon_px * config.subpix_epsilon_px;
+    let mut buffer = vec![0.0f64; buffer_side * buffer_side];
+    let mut q = start;
+    for _ in 0..config.subpix_max_iterations {
+        // buffer[(i, j)] samples q + (j - half - 1, i - half - 1): one fractional offset for
+        // the whole patch, so the bilinear weights are shared when it lies inside the image.
+        let x0 = q.x - f64::from(half + 1);
+        let y0 = q.y - f64::from(half + 1);
+        let (bx, by) = (x0.floor(), y0.floor());
+        let inside = bx >= 0.0
+            && by >= 0.0
+            && bx + (buffer_side as f64) < plane.width as f64
+            && by + (buffer_side as f64) < plane.height as f64;
+        if inside {
+            let (ax, ay) = (x0 - bx, y0 - by);
+            let (w00, w01, w10, w11) = (
+                (1.0 - ax) * (1.0 - ay),
+                ax * (1.0 - ay),
+                (1.0 - ax) * ay,
+                ax * ay,
+            );
+            let (bx, by) = (bx as usize, by as usize);
+            for i in 0..buffer_side {
+                let top = &plane.data[(by + i) * plane.width + bx..];
+                let bottom = &plane.data[(by + i + 1) * plane.width + bx..];
+                for j in 0..buffer_side {
+                    buffer[i * buffer_side + j] = w00 * f64::from(top[j])
+                        + w01 * f64::from(top[j + 1])
+                        + w10 * f64::from(bottom[j])
+                        + w11 * f64::from(bottom[j + 1]);
+                }
+            }
+        } else {
+            for i in 0..buffer_side {
+                for j in 0..buffer_side {
+                    buffer[i * buffer_side + j] = plane.bilinear(x0 + j as f64, y0 + i as f64);
+                }
+            }
+        }
+        let (mut a, mut b, mut c, mut bb1, mut bb2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for i in 0..side {
+            let py = f64::from(i as i32 - half);
+            for j in 0..side {
+                let px = f64::from(j as i32 - half);
+                let m = mask[i * side + j];
+                let at = (i + 1) * buffer_side + j + 1;
+                let gx = buffer[at + 1] - buffer[at - 1];
+                let gy = buffer[at + buffer_side] - buffer[at - buffer_side];
+                let (gxx, gxy, gyy) = (gx * gx * m, gx * gy * m, gy * gy * m);
+                a += gxx;
+                b += gxy;
+                c += gyy;
+                bb1 += gxx * px + gxy * py;
+                bb2 += gxy * px + gyy * py;
+            }
+        }
+        let det = a * c - b * b;
+        if det.abs() <= f64::EPSILON * f64::EPSILON {
+            break;
+        }
+        let next = Pixel::new(
+            q.x + (c * bb1 - b * bb2) / det,
+            q.y + (-b * bb1 + a * bb2) / det,
+        );
+        let moved2 = (next.x - q.x).powi(2) + (next.y - q.y).powi(2);
+        q = next;
+        if q.x < 0.0
+            || q.y < 0.0
+            || q.x >= plane.width as f64
+            || q.y >= plane.height as f64
+            || moved2 <= eps2
+        {
+            break;
+        }
+    }
+    // As OpenCV: a corner that wandered out of its window did not converge; keep the start.
+    if (q.x - start.x).abs() > f64::from(half) || (q.y - start.y).abs() > f64::from(half) {
+        start
+    } else {
+        q
+    }
+}

@@ -1,0 +1,395 @@
+//! Rig calibration on simulated views: board corners projected through a known rig with
+//! `Camera::project`, plus Gaussian corner noise, against the known camera poses.
+
+#![allow(
+    clippy::print_stderr,
+    reason = "tests print the measured numbers that notes/calib.md reports"
+)]
+
+use nalgebra::{Rotation3, Unit, UnitQuaternion, Vector3};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use teachcam::calib::intrinsics::{IntrinsicsConfig, calibrate_intrinsics};
+use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig};
+use teachcam::calib::{BoardView, CalibError, Chessboard};
+use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
+use teachcam::geometry::{CameraId, Pixel, Point3, Pose, Vec3, pose_from_parts};
+
+const BOARD: Chessboard = Chessboard {
+    inner_cols: 9,
+    inner_rows: 6,
+    square_mm: 50.0,
+};
+const SIZE: ImageSize = ImageSize {
+    width: 1280,
+    height: 1024,
+};
+/// Corner noise of a good sub-pixel detector on a sharp board, pixels (per coordinate).
+const NOISE_PX: f64 = 0.1;
+
+/// A camera at `centre` looking at `target`, the paper's 1280x1024 sensor and 12 mm lens.
+fn look_at(name: &str, centre: Point3, target: Point3, cx_offset: f64) -> Camera {
+    let z = (target - centre).normalize();
+    let x = z.cross(&Vec3::new(0.0, 1.0, 0.3)).normalize();
+    let y = z.cross(&x);
+    let rotation = Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_rows(&[
+        x.transpose(),
+        y.transpose(),
+        z.transpose(),
+    ]));
+    let q = UnitQuaternion::from_rotation_matrix(&rotation);
+    let t = -(q * centre.coords);
+    Camera {
+        name: name.to_owned(),
+        image_size: SIZE,
+        intrinsics: Intrinsics {
+            fx: 1790.0,
+            fy: 1791.5,
+            cx: 639.5 + cx_offset,
+            cy: 511.5 - cx_offset,
+        },
+        distortion: Distortion::from_opencv([-0.12, 0.08, 0.0008, -0.0005, 0.0]),
+        camera_from_world: pose_from_parts(t, q),
+    }
+}
+
+fn rig(count: usize) -> Vec<Camera> {
+    let target = Point3::new(120.0, 75.0, 0.0);
+    let centres = [
+        Point3::new(-500.0, -300.0, -850.0),
+        Point3::new(700.0, -350.0, -800.0),
+        Point3::new(150.0, 650.0, -900.0),
+        Point3::new(-450.0, 500.0, -750.0),
+    ];
+    centres[..count]
+        .iter()
+        .enumerate()
+        .map(|(i, c)| look_at(&format!("cam{i}"), *c, target, 4.0 * i as f64))
+        .collect()
+}
+
+/// Board placements: "world" lying on the work object (the world frame itself), then tilted
+/// boards held above it.
+fn placements(rng: &mut ChaCha8Rng, count: usize) -> Vec<(String, Pose)> {
+    let mut out = vec![("world".to_owned(), Pose::identity())];
+    for k in 0..count {
+        let axis = Unit::new_normalize(Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            0.0,
+        ));
+        let tilt = rng.random_range(10f64..40.0).to_radians();
+        let spin = rng.random_range(-0.5..0.5);
+        let rotation = UnitQuaternion::from_axis_angle(&axis, tilt)
+            * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), spin);
+        let centre_in_board = Vec3::new(200.0, 125.0, 0.0);
+        let position = Vec3::new(
+            rng.random_range(-150.0..150.0) + 120.0,
+            rng.random_range(-120.0..120.0) + 75.0,
+            rng.random_range(-300.0..-20.0),
+        );
+        let translation = position - rotation * centre_in_board;
+        out.push((format!("v{k:02}"), pose_from_parts(translation, rotation)));
+    }
+    out
+}
+
+/// Noisy observations of every placement a camera sees whole and from the front.
+fn observe(
+    cameras: &[Camera],
+    boards: &[(String, Pose)],
+    rng: &mut ChaCha8Rng,
+) -> Vec<RigObservation> {
+    let noise = Normal::new(0.0, NOISE_PX).unwrap_or_else(|e| panic!("{e}"));
+    let corners = BOARD.corners_in_board();
+    let mut observations = Vec::new();
+    for (name, world_from_board) in boards {
+        for (c, camera) in cameras.iter().enumerate() {
+            // The printed side faces the camera: the camera lies on the board's -z side.
+            let centre_in_board =
+                world_from_board.inverse_transform_point(&camera.center_in_world());
+            if centre_in_board.z >= 0.0 {
+                continue;
+            }
+            let pixels: Option<Vec<Pixel>> = corners
+                .iter()
+                .map(|x| {
+                    camera
+                        .project(&(world_from_board * x))
+                        .filter(|p| SIZE.contains(p))
+                        .map(|p| Pixel::new(p.x + noise.sample(rng), p.y + noise.sample(rng)))
+                })
+                .collect();
+            if let Some(pixels) = pixels {
+                observations.push(RigObservation {
+                    camera: CameraId(c),
+                    view: name.clone(),
+                    corners: pixels,
+                });
+            }
+        }
+    }
+    observations
+}
+
+/// The pipeline of `teachcam calibrate rig`: each camera's intrinsics from its own views, then
+/// the rig, world on the board lying on the object, intrinsics refined in the adjustment.
+fn calibrate_simulated(
+    count: usize,
+    seed: u64,
+) -> (Vec<Camera>, teachcam::calib::rig::RigCalibration) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let truth = rig(count);
+    let boards = placements(&mut rng, 40);
+    let observations = observe(&truth, &boards, &mut rng);
+    let corners = BOARD.corners_in_board();
+    let mut cameras = Vec::new();
+    for (c, camera) in truth.iter().enumerate() {
+        let views: Vec<BoardView> = observations
+            .iter()
+            .filter(|o| o.camera == CameraId(c))
+            .map(|o| BoardView {
+                name: o.view.clone(),
+                corners: o.corners.clone(),
+            })
+            .collect();
+        eprintln!("{}: {} views", camera.name, views.len());
+        let mut calibrated =
+            calibrate_intrinsics(&corners, &views, SIZE, &IntrinsicsConfig::default())
+                .unwrap_or_else(|e| panic!("{}: {e}", camera.name))
+                .camera;
+        calibrated.name = camera.name.clone();
+        cameras.push(calibrated);
+    }
+    let config = RigConfig {
+        refine_intrinsics: true,
+        ..RigConfig::default()
+    };
+    let result = calibrate_rig(
+        &corners,
+        &cameras,
+        &observations,
+        &WorldFrame::Board("world".into()),
+        &config,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    (truth, result)
+}
+
+fn check_against_truth(count: usize, seed: u64) {
+    let (truth, result) = calibrate_simulated(count, seed);
+    eprintln!(
+        "rms {:.4} px, per camera {:?}",
+        result.rms_px, result.cameras
+    );
+    // With Gaussian noise of σ per coordinate, the RMS (over 2 coordinates) is about σ √2.
+    assert!(
+        (result.rms_px / (NOISE_PX * 2f64.sqrt()) - 1.0).abs() < 0.1,
+        "rms {}",
+        result.rms_px
+    );
+    let ours0 = &result.rig.cameras[0];
+    let truth0 = &truth[0];
+    for ((ours, true_camera), residual) in
+        result.rig.cameras.iter().zip(&truth).zip(&result.cameras)
+    {
+        // Absolute: in the world of the board on the object. That board's own pose error
+        // moves every camera alike; the adjustment's covariance predicts it.
+        let centre_error_mm = (ours.center_in_world() - true_camera.center_in_world()).norm();
+        let rotation_error_deg = ours
+            .camera_from_world
+            .rotation
+            .angle_to(&true_camera.camera_from_world.rotation)
+            .to_degrees();
+        // Relative: this camera seen from camera 0, free of the world board's error.
+        let ours_rel = ours.camera_from_world * ours0.camera_from_world.inverse();
+        let true_rel = true_camera.camera_from_world * truth0.camera_from_world.inverse();
+        let rel_centre_mm = (ours_rel.inverse_transform_point(&Point3::origin())
+            - true_rel.inverse_transform_point(&Point3::origin()))
+        .norm();
+        let rel_rotation_deg = ours_rel.rotation.angle_to(&true_rel.rotation).to_degrees();
+        eprintln!(
+            "{}: world: centre {centre_error_mm:.4} mm (σ {:.4}), rotation {rotation_error_deg:.5}° (σ {:.5}); from cam0: centre {rel_centre_mm:.4} mm, rotation {rel_rotation_deg:.5}°",
+            ours.name, residual.centre_std_mm, residual.rotation_std_deg
+        );
+        // |error| of a 3-vector beyond 3 sqrt(trace Cov) has probability below 1e-4.
+        assert!(
+            centre_error_mm < 3.0 * residual.centre_std_mm,
+            "{}: centre error {centre_error_mm} mm",
+            ours.name
+        );
+        assert!(
+            rotation_error_deg < 3.0 * residual.rotation_std_deg,
+            "{}: rotation error {rotation_error_deg}°",
+            ours.name
+        );
+        // The issue asks for 0.5 mm and 0.02°: the centres meet it by far (σ ≈ 0.15 mm), the
+        // rotations cannot at σ = 0.1 px here, where the principal point's own uncertainty
+        // (≈ 0.5 px, i.e. 0.02° at f = 1790 px) sets σ ≈ 0.022–0.029° (notes/calib.md).
+        assert!(
+            centre_error_mm < 0.5,
+            "{}: centre error {centre_error_mm} mm",
+            ours.name
+        );
+    }
+}
+
+#[test]
+fn three_camera_rig_matches_truth() {
+    check_against_truth(3, 7);
+}
+
+#[test]
+fn four_camera_rig_matches_truth() {
+    check_against_truth(4, 11);
+}
+
+#[test]
+fn camera_sharing_no_view_is_named() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let truth = rig(3);
+    let boards = placements(&mut rng, 12);
+    let observations: Vec<RigObservation> = observe(&truth, &boards, &mut rng)
+        .into_iter()
+        // cam2 keeps only views nobody else saw: none.
+        .filter(|o| o.camera != CameraId(2))
+        .collect();
+    let error = calibrate_rig(
+        &BOARD.corners_in_board(),
+        &truth,
+        &observations,
+        &WorldFrame::Board("world".into()),
+        &RigConfig::default(),
+    )
+    .err();
+    assert_eq!(
+        error,
+        Some(CalibError::Unlinked {
+            camera: "cam2".into()
+        })
+    );
+}
+
+#[test]
+fn unknown_world_view_is_named() {
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let truth = rig(3);
+    let boards = placements(&mut rng, 6);
+    let observations = observe(&truth, &boards, &mut rng);
+    let error = calibrate_rig(
+        &BOARD.corners_in_board(),
+        &truth,
+        &observations,
+        &WorldFrame::Board("table".into()),
+        &RigConfig::default(),
+    )
+    .err();
+    assert_eq!(
+        error,
+        Some(CalibError::UnknownWorldView {
+            view: "table".into()
+        })
+    );
+}
+
+fn views_of(camera: &Camera, boards: &[(String, Pose)]) -> Vec<BoardView> {
+    boards
+        .iter()
+        .map(|(name, world_from_board)| BoardView {
+            name: name.clone(),
+            corners: BOARD
+                .corners_in_board()
+                .iter()
+                .filter_map(|x| camera.project(&(world_from_board * x)))
+                .collect(),
+        })
+        .collect()
+}
+
+/// Boards all parallel to each other: Zhang's constraints repeat and K is undetermined.
+#[test]
+fn parallel_views_are_refused() {
+    let camera = rig(1).remove(0);
+    let boards: Vec<(String, Pose)> = (0..5)
+        .map(|k| {
+            let shift = Vec3::new(
+                20.0 * f64::from(k),
+                -10.0 * f64::from(k),
+                -30.0 * f64::from(k),
+            );
+            (
+                format!("v{k}"),
+                pose_from_parts(shift, UnitQuaternion::identity()),
+            )
+        })
+        .collect();
+    let views = views_of(&camera, &boards);
+    let error = calibrate_intrinsics(
+        &BOARD.corners_in_board(),
+        &views,
+        SIZE,
+        &IntrinsicsConfig::default(),
+    )
+    .err();
+    assert_eq!(error, Some(CalibError::DegenerateViews));
+}
+
+#[test]
+fn too_few_views_and_bad_corners_are_refused() {
+    let camera = rig(1).remove(0);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let boards = placements(&mut rng, 4);
+    let mut views = views_of(&camera, &boards);
+    let corners = BOARD.corners_in_board();
+    let config = IntrinsicsConfig::default();
+    assert_eq!(
+        calibrate_intrinsics(&corners, &views[..2], SIZE, &config).err(),
+        Some(CalibError::TooFewViews {
+            views: 2,
+            needed: 3
+        })
+    );
+    views[1].corners[7].x = f64::NAN;
+    assert_eq!(
+        calibrate_intrinsics(&corners, &views, SIZE, &config).err(),
+        Some(CalibError::NotFinite {
+            view: "v00".into(),
+            corner: 7
+        })
+    );
+    views[1].corners.pop();
+    assert_eq!(
+        calibrate_intrinsics(&corners, &views, SIZE, &config).err(),
+        Some(CalibError::CornerCount {
+            view: "v00".into(),
+            found: 53,
+            expected: 54
+        })
+    );
+}
+
+/// Noise-free views: the estimate must reach the truth to numerical precision.
+#[test]
+fn noise_free_intrinsics_are_exact() {
+    let camera = rig(1).remove(0);
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    let boards: Vec<(String, Pose)> = placements(&mut rng, 12);
+    let views: Vec<BoardView> = views_of(&camera, &boards)
+        .into_iter()
+        .filter(|v| {
+            v.corners.len() == BOARD.corner_count() && v.corners.iter().all(|p| SIZE.contains(p))
+        })
+        .collect();
+    let c = calibrate_intrinsics(
+        &BOARD.corners_in_board(),
+        &views,
+        SIZE,
+        &IntrinsicsConfig::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(c.rms_px < 1e-6, "rms {}", c.rms_px);
+    assert!((c.camera.intrinsics.fx - camera.intrinsics.fx).abs() < 1e-4);
+    assert!((c.camera.intrinsics.cy - camera.intrinsics.cy).abs() < 1e-4);
+    assert!((c.camera.distortion.k1 - camera.distortion.k1).abs() < 1e-6);
+}
