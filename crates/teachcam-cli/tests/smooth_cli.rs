@@ -221,3 +221,99 @@ fn auto_cutoff_spectrum_and_study_write_their_files() {
             .starts_with("time_s,clean_mm,noisy_mm")
     );
 }
+
+/// Real data: OptiTrack, wheelchair basketball sprint, the 4-marker `ArmL` cluster at 120 Hz
+/// (`shared/data/c3d/ktk_basket_sprint_optitrack.c3d`), imported by `teachcam import`, with 73
+/// gaps of 1 to 71 frames. No ground truth: the checks are what smoothing must not do.
+#[test]
+fn real_optitrack_arm_cluster_is_smoothed_gaps_filled_and_motion_kept() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/c3d");
+    if !data.is_dir() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "{} is missing: the real-data test cannot run",
+            data.display()
+        );
+        eprintln!("skipped: {} is missing", data.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("arm.csv");
+    let c3d = data.join("ktk_basket_sprint_optitrack.c3d");
+    let o = teachcam(&[
+        "import",
+        "c3d",
+        c3d.to_str().unwrap(),
+        "--markers",
+        "ArmL:Marker1,ArmL:Marker2,ArmL:Marker3,ArmL:Marker4",
+        "-o",
+        raw.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // Isolated frames are shorter than the filter's padding: refused by default, gaps on request.
+    let smoothed = |cutoff: &str| {
+        let out = dir.path().join(format!("arm_{cutoff}.csv"));
+        let o = teachcam(&[
+            "smooth",
+            raw.to_str().unwrap(),
+            "--cutoff",
+            cutoff,
+            "--short-runs",
+            "gap",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        read_trajectory(&out).unwrap()
+    };
+    let o = teachcam(&[
+        "smooth",
+        raw.to_str().unwrap(),
+        "--cutoff",
+        "6",
+        "-o",
+        dir.path().join("x.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("padding"), "{}", stderr(&o));
+
+    let input = read_trajectory(&raw).unwrap();
+    let rms_change = |t: &Trajectory| {
+        let d: Vec<f64> = input
+            .samples
+            .iter()
+            .zip(&t.samples)
+            .filter_map(|(a, b)| {
+                let (a, b) = (a.pose?, b.pose?);
+                Some(
+                    (a.world_from_tool.translation.vector - b.world_from_tool.translation.vector)
+                        .norm_squared(),
+                )
+            })
+            .collect();
+        (d.iter().sum::<f64>() / d.len() as f64).sqrt()
+    };
+    let at_6 = smoothed("6");
+    let at_20 = smoothed("20");
+    let filled = at_6
+        .samples
+        .iter()
+        .zip(&input.samples)
+        .filter(|(s, r)| s.source == teachcam::trajectory::PoseSource::Filled && r.pose.is_none())
+        .count();
+    let poses = |t: &Trajectory| t.samples.iter().filter(|s| s.pose.is_some()).count();
+    // Measured: 2980 raw poses, 204 filled, 3173 after smoothing; RMS change 1.87 mm at 6 Hz
+    // while the cluster travels 12 m; registration RMS up to 2 mm.
+    assert!(filled > 100 && poses(&at_6) > poses(&input), "{filled}");
+    let (change_6, change_20) = (rms_change(&at_6), rms_change(&at_20));
+    assert!(
+        change_6 < 3.0 && change_20 < change_6,
+        "{change_6} {change_20}"
+    );
+    for s in &at_6.samples {
+        if let Some(p) = s.pose {
+            assert!((p.world_from_tool.rotation.quaternion().norm() - 1.0).abs() < 1e-12);
+        }
+    }
+}

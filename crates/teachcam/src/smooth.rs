@@ -192,24 +192,24 @@ pub enum SmoothError {
         tolerance_mm: f64,
     },
     /// The low-pass cannot be designed or applied to a run.
-    #[error("frames {first_frame}..={last_frame}: {source}")]
+    #[error("frames {first_frame}..={last_frame}: {cause}")]
     Filter {
         /// First frame of the run.
         first_frame: usize,
         /// Last frame of the run.
         last_frame: usize,
-        /// The cause.
-        source: FilterError,
+        /// The cause (in the message, not chained, so it is said once).
+        cause: FilterError,
     },
     /// The least-squares B-spline cannot be fitted to a run.
-    #[error("frames {first_frame}..={last_frame}: {source}")]
+    #[error("frames {first_frame}..={last_frame}: {cause}")]
     Nurbs {
         /// First frame of the run.
         first_frame: usize,
         /// Last frame of the run.
         last_frame: usize,
-        /// The cause.
-        source: bspline::BSplineError,
+        /// The cause (in the message, not chained, so it is said once).
+        cause: bspline::BSplineError,
     },
     /// A parameter of the method is out of range.
     #[error("{parameter} = {value} is out of range: {reason}")]
@@ -284,14 +284,28 @@ pub fn check_timing(
         }
     }
     Ok(Timing {
-        sample_rate_hz: 1.0 / mean_step_s,
+        sample_rate_hz: snapped_rate_hz(1.0 / mean_step_s, last.time_s - first.time_s),
     })
+}
+
+/// The sampling rate from the time span, snapped to a multiple of 0.001 Hz (30, 29.97, 100,
+/// 119.88) when the difference is within what the file's microsecond rounding of the two end
+/// times allows (`1e-6 s / span`, relative). Otherwise the rounding would leak into the filter
+/// coefficients at about 1e-8 and move the output away from `butter(N, fc, fs=30)`.
+fn snapped_rate_hz(rate_hz: f64, span_s: f64) -> f64 {
+    let snapped = (rate_hz * 1000.0).round() / 1000.0;
+    if (snapped - rate_hz).abs() <= rate_hz * 1e-6 / span_s {
+        snapped
+    } else {
+        rate_hz
+    }
 }
 
 /// Smooths a trajectory: every run (segments merged across gaps of at most
 /// `config.max_gap_frames`) through `config.method`, gaps inside runs filled and marked
-/// [`PoseSource::Filled`], longer gaps kept. Frames, times, marker counts and residuals are
-/// kept; the tip is recomputed from the smoothed pose.
+/// [`PoseSource::Filled`] (with `markers` and `rms_mm` 0: nothing was measured), longer gaps
+/// kept. Frames, times, marker counts and residuals are kept; the tip is recomputed from the
+/// smoothed pose.
 ///
 /// # Errors
 /// [`SmoothError`] naming the frame or the run: non-uniform or missing frames, non-finite
@@ -336,9 +350,9 @@ pub struct RunSeries {
 }
 
 /// Builds the series of a run whose first and last samples have a pose; inner gaps are filled
-/// by not-a-knot cubic splines over the measured samples.
+/// by cubic splines with `fill_ends` over the measured samples.
 #[must_use]
-pub fn run_series(samples: &[Sample]) -> RunSeries {
+pub fn run_series(samples: &[Sample], fill_ends: SplineEnds) -> RunSeries {
     let measured: Vec<(usize, &ToolPose)> = samples
         .iter()
         .enumerate()
@@ -368,7 +382,7 @@ pub fn run_series(samples: &[Sample]) -> RunSeries {
         let times: Vec<f64> = measured.iter().map(|(i, _)| samples[*i].time_s).collect();
         let splines: Vec<Option<CubicSpline>> = columns
             .iter()
-            .map(|y| CubicSpline::new(&times, y, SplineEnds::NotAKnot).ok())
+            .map(|y| CubicSpline::new(&times, y, fill_ends).ok())
             .collect();
         let mut filled: [Vec<f64>; 6] = Default::default();
         rotations = Vec::with_capacity(samples.len());
@@ -419,7 +433,7 @@ pub fn smooth_series(
                     SmoothError::Filter {
                         first_frame: 0,
                         last_frame,
-                        source,
+                        cause: source,
                     }
                 })?;
             filter
@@ -427,7 +441,7 @@ pub fn smooth_series(
                 .map_err(|source| SmoothError::Filter {
                     first_frame: 0,
                     last_frame,
-                    source,
+                    cause: source,
                 })
         }
         // On a uniform run, the interpolating spline at the sample times is the samples.
@@ -451,7 +465,7 @@ pub fn smooth_series(
                 |source| SmoothError::Nurbs {
                     first_frame: 0,
                     last_frame,
-                    source,
+                    cause: source,
                 },
             )?;
             Ok(fit.fit(values))
@@ -509,7 +523,7 @@ fn check_method(
             .map_err(|source| SmoothError::Filter {
                 first_frame: frames.start,
                 last_frame: frames.end,
-                source,
+                cause: source,
             }),
         Method::Nurbs {
             degree,
@@ -543,7 +557,12 @@ fn smooth_run(
 ) -> Result<Vec<Sample>, SmoothError> {
     let first_frame = samples.first().map_or(0, |s| s.frame.0);
     let last_frame = samples.last().map_or(0, |s| s.frame.0);
-    let series = run_series(samples);
+    // Gaps are filled by the spline the user chose, or scipy's default ends otherwise.
+    let fill_ends = match method {
+        Method::Spline { ends } => *ends,
+        _ => SplineEnds::NotAKnot,
+    };
+    let series = run_series(samples, fill_ends);
     let smoothed: Vec<Vec<f64>> = series
         .columns
         .par_iter()
@@ -595,10 +614,10 @@ fn is_too_short(error: &SmoothError) -> bool {
     matches!(
         error,
         SmoothError::Filter {
-            source: FilterError::TooShort { .. },
+            cause: FilterError::TooShort { .. },
             ..
         } | SmoothError::Nurbs {
-            source: bspline::BSplineError::Underdetermined { .. },
+            cause: bspline::BSplineError::Underdetermined { .. },
             ..
         }
     )
@@ -606,15 +625,15 @@ fn is_too_short(error: &SmoothError) -> bool {
 
 fn rename_frames(error: SmoothError, first: usize, last: usize) -> SmoothError {
     match error {
-        SmoothError::Filter { source, .. } => SmoothError::Filter {
+        SmoothError::Filter { cause: source, .. } => SmoothError::Filter {
             first_frame: first,
             last_frame: last,
-            source,
+            cause: source,
         },
-        SmoothError::Nurbs { source, .. } => SmoothError::Nurbs {
+        SmoothError::Nurbs { cause: source, .. } => SmoothError::Nurbs {
             first_frame: first,
             last_frame: last,
-            source,
+            cause: source,
         },
         SmoothError::BezierTooLong { samples, max, .. } => SmoothError::BezierTooLong {
             first_frame: first,
@@ -726,7 +745,8 @@ fn longest_segment(
             samples: trajectory.len(),
             poses: 0,
         })?;
-    let series = run_series(&trajectory.samples[segment.clone()]);
+    // A segment has no gap: nothing is filled.
+    let series = run_series(&trajectory.samples[segment.clone()], SplineEnds::NotAKnot);
     Ok((timing, segment, series))
 }
 
@@ -789,7 +809,7 @@ pub fn suggest_cutoff(
     let filter_error = |source| SmoothError::Filter {
         first_frame: trajectory.samples[segment.start].frame.0,
         last_frame: trajectory.samples[segment.end - 1].frame.0,
-        source,
+        cause: source,
     };
     let analyse = |c: &Vec<f64>| {
         let head = &c[..c.len().min(SUGGESTION_MAX_SAMPLES)];

@@ -416,3 +416,54 @@ mod never_panics {
         }
     }
 }
+
+#[test]
+fn sample_rate_survives_the_csv_microsecond_rounding() {
+    // 1/30 s is written as 0.033333: the span read back is off by up to 1e-6 s.
+    for (fs, n) in [(30.0, 901), (29.97, 500), (100.0, 1234), (119.88, 77)] {
+        let positions = vec![[1.0, 2.0, 3.0]; n];
+        let rotations = vec![UnitQuaternion::identity(); n];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        teachcam::io::trajectory::write_trajectory(&path, &trajectory(fs, &positions, &rotations))
+            .unwrap();
+        let back = teachcam::io::trajectory::read_trajectory(&path).unwrap();
+        let timing = teachcam::smooth::check_timing(&back, 1e-3).unwrap();
+        assert_eq!(timing.sample_rate_hz, fs);
+    }
+}
+
+#[test]
+fn spline_method_fills_gaps_with_its_own_end_conditions() {
+    // Natural ends bend a cubic near the ends, not-a-knot does not: a gap near the start,
+    // filled by the spline method, follows the ends asked for (the spline itself is checked
+    // against scipy in smooth_scipy.rs).
+    use teachcam::smooth::spline::CubicSpline;
+    let fs = 30.0;
+    let n = 20;
+    let f = |t: f64| 5.0 * t.powi(3) + 3.0 * t * t - t;
+    let positions: Vec<[f64; 3]> = (0..n).map(|i| [f(i as f64 / fs), 0.0, 0.0]).collect();
+    let rotations = vec![UnitQuaternion::identity(); n];
+    let mut t = trajectory(fs, &positions, &rotations);
+    t.samples[2].pose = None;
+    let measured: Vec<usize> = (0..n).filter(|i| *i != 2).collect();
+    let x: Vec<f64> = measured.iter().map(|i| *i as f64 / fs).collect();
+    let y: Vec<f64> = measured.iter().map(|i| positions[*i][0]).collect();
+    for ends in [SplineEnds::Natural, SplineEnds::NotAKnot] {
+        let config = SmoothConfig {
+            method: Method::Spline { ends },
+            ..SmoothConfig::default()
+        };
+        let out = smooth(&t, &config).unwrap();
+        let filled = out.samples[2].pose.unwrap().world_from_tool.translation.x;
+        let expected = CubicSpline::new(&x, &y, ends).unwrap().value(2.0 / fs);
+        assert!((filled - expected).abs() < 1e-12, "{ends:?}");
+    }
+    let natural = CubicSpline::new(&x, &y, SplineEnds::Natural)
+        .unwrap()
+        .value(2.0 / fs);
+    assert!(
+        (natural - f(2.0 / fs)).abs() > 1e-6,
+        "the two ends must differ here"
+    );
+}

@@ -3,7 +3,7 @@
 //! Model: the measured segments of a trajectory (runs of frames with a pose) are merged across
 //! gaps of at most `max_gap_frames` frames into *runs*; a run is smoothed as one uniform series
 //! after its inner gaps are filled by cubic-spline interpolation (not-a-knot ends, as scipy's
-//! `CubicSpline`) of the positions and of the unrolled rotations. Longer gaps, and the frames
+//! `CubicSpline`, or the ends of the spline method when that is the method) of the positions and of the unrolled rotations. Longer gaps, and the frames
 //! before the first and after the last pose, stay gaps: nothing is extrapolated.
 
 use std::ops::Range;
