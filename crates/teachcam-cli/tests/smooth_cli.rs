@@ -227,16 +227,9 @@ fn auto_cutoff_spectrum_and_study_write_their_files() {
 /// gaps of 1 to 71 frames. No ground truth: the checks are what smoothing must not do.
 #[test]
 fn real_optitrack_arm_cluster_is_smoothed_gaps_filled_and_motion_kept() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/c3d");
-    if !data.is_dir() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} is missing: the real-data test cannot run",
-            data.display()
-        );
-        eprintln!("skipped: {} is missing", data.display());
+    let Some(data) = teachcam_testdata::shared_data("c3d") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let raw = dir.path().join("arm.csv");
     let c3d = data.join("ktk_basket_sprint_optitrack.c3d");
