@@ -219,6 +219,69 @@ pub fn identify(model: &[Point3], points: &[Point3], config: &IdentifyConfig) ->
     Identification { labels, unassigned }
 }
 
+/// Identifies several tools in one cloud of points: each tool's markers by
+/// [`identify`], then a point claimed by more than one tool is taken from every tool that
+/// claimed it (the tools' distance signatures must differ for this to be rare; see
+/// [`check_tools_distinct`]). Results are in the order of `models`.
+#[must_use]
+pub fn identify_tools(
+    models: &[&[Point3]],
+    points: &[Point3],
+    config: &IdentifyConfig,
+) -> Vec<Identification> {
+    let mut found: Vec<Identification> =
+        models.iter().map(|m| identify(m, points, config)).collect();
+    let claimed = |point: usize, found: &[Identification]| {
+        found
+            .iter()
+            .filter(|f| f.labels.values().any(|p| *p == point))
+            .count()
+    };
+    let contested: Vec<usize> = (0..points.len())
+        .filter(|p| claimed(*p, &found) > 1)
+        .collect();
+    for f in &mut found {
+        f.labels.retain(|_, p| !contested.contains(p));
+        f.unassigned = (0..points.len())
+            .filter(|i| !f.labels.values().any(|p| p == i))
+            .collect();
+    }
+    found
+}
+
+/// Refuses a set of tools that could be mistaken for one another: a tool's distance that
+/// another tool also has (within twice the tolerance) lets a point of one vote for the other.
+///
+/// # Errors
+/// [`IdentifyError::Ambiguous`] naming the tools' pairs (the first tool's in `a`-`b`, the
+/// second's in `c`-`d`, with `tool` naming both).
+pub fn check_tools_distinct(tools: &[&Tool], config: &IdentifyConfig) -> Result<(), IdentifyError> {
+    for tool in tools {
+        check_identifiable(tool, config)?;
+    }
+    for (i, first) in tools.iter().enumerate() {
+        for second in &tools[i + 1..] {
+            for p in model_pairs(&first.markers_in_tool) {
+                for q in model_pairs(&second.markers_in_tool) {
+                    if (p.distance_mm - q.distance_mm).abs() < 2.0 * config.distance_tolerance_mm {
+                        return Err(IdentifyError::Ambiguous {
+                            tool: format!("{}' and '{}", first.name, second.name),
+                            a: p.a.0,
+                            b: p.b.0,
+                            distance_ab_mm: p.distance_mm,
+                            c: q.a.0,
+                            d: q.b.0,
+                            distance_cd_mm: q.distance_mm,
+                            tolerance_mm: config.distance_tolerance_mm,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Completion: a point left without a label (its votes tied, e.g. because a stray matched one
 /// of its distances by chance) takes the one free marker whose model distances to at least two
 /// labelled markers it reproduces, when no other point could take it.
@@ -342,6 +405,81 @@ mod tests {
         assert_eq!(id.labels, expected);
         assert!(!id.labels.contains_key(&MarkerId(3)));
         assert!(id.unassigned.is_empty());
+    }
+
+    #[test]
+    fn two_tools_in_one_cloud_are_told_apart() {
+        let brush: Vec<Point3> = [
+            [0.0, 0.0, 0.0],
+            [53.0, 59.0, 26.0],
+            [-47.0, 6.0, 34.0],
+            [45.0, -8.0, 4.0],
+        ]
+        .iter()
+        .map(|p| Point3::new(p[0], p[1], p[2]))
+        .collect();
+        let probe: Vec<Point3> = [
+            [0.0, 0.0, 0.0],
+            [120.0, 0.0, 0.0],
+            [30.0, 95.0, 0.0],
+            [-20.0, 40.0, 60.0],
+        ]
+        .iter()
+        .map(|p| Point3::new(p[0], p[1], p[2]))
+        .collect();
+        let config = IdentifyConfig::default();
+        let tools: Vec<Tool> = [("brush", &brush), ("probe", &probe)]
+            .iter()
+            .map(|(n, m)| {
+                Tool::new(
+                    (*n).into(),
+                    10.0,
+                    (*m).clone(),
+                    crate::geometry::Pose::identity(),
+                )
+                .unwrap()
+            })
+            .collect();
+        check_tools_distinct(&[&tools[0], &tools[1]], &config).unwrap();
+        // The probe 400 mm away, both clouds shuffled together, one brush marker hidden.
+        let offset = nalgebra::Vector3::new(400.0, 0.0, 0.0);
+        let points = vec![
+            probe[3] + offset,
+            brush[2],
+            probe[0] + offset,
+            brush[0],
+            probe[1] + offset,
+            brush[3],
+            probe[2] + offset,
+        ];
+        let found = identify_tools(&[&brush, &probe], &points, &config);
+        let brush_labels: BTreeMap<MarkerId, usize> =
+            [(MarkerId(0), 3), (MarkerId(2), 1), (MarkerId(3), 5)].into();
+        let probe_labels: BTreeMap<MarkerId, usize> = [
+            (MarkerId(0), 2),
+            (MarkerId(1), 4),
+            (MarkerId(2), 6),
+            (MarkerId(3), 0),
+        ]
+        .into();
+        assert_eq!(found[0].labels, brush_labels);
+        assert_eq!(found[1].labels, probe_labels);
+        // A tool with one of the brush's distances is refused beside it.
+        let twin = Tool::new(
+            "twin".into(),
+            10.0,
+            vec![
+                Point3::origin(),
+                Point3::new(45.88, 0.0, 0.0),
+                Point3::new(0.0, 90.0, 0.0),
+            ],
+            crate::geometry::Pose::identity(),
+        )
+        .unwrap();
+        let message = check_tools_distinct(&[&tools[0], &twin], &config)
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("brush' and 'twin"), "{message}");
     }
 
     #[test]

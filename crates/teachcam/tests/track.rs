@@ -151,6 +151,66 @@ fn stray_blobs_seen_once_make_no_point() {
     assert!(correspond(&scene.rig, &geometry, &views, &CorrespondConfig::default()).is_empty());
 }
 
+/// Whether `pixel` of camera `to` lies within `band` pixels of the epipolar line of any of
+/// `others` (pixels of camera `from`).
+fn near_a_line(
+    scene: &teachcam::sim::Scene,
+    from: CameraId,
+    others: &[Pixel],
+    to: CameraId,
+    pixel: &Pixel,
+    band: f64,
+) -> bool {
+    let f =
+        teachcam::camera::fundamental_matrix(&scene.rig.cameras[from.0], &scene.rig.cameras[to.0]);
+    let ideal = scene.rig.cameras[to.0].ideal_pixel(pixel).unwrap();
+    others.iter().any(|o| {
+        let line =
+            teachcam::camera::epipolar_line(&f, &scene.rig.cameras[from.0].ideal_pixel(o).unwrap())
+                .unwrap();
+        line.distance(&ideal) < band
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Strays in every camera (off the epipolar lines of everything in the other cameras, where
+    /// two views could not tell them from a marker) never make a 3-D point, and the markers are
+    /// all still matched.
+    #[test]
+    fn correspondence_makes_no_point_from_stray_blobs(
+        frame in 0..120_usize,
+        strays in prop::collection::vec((0..3_usize, 20.0..1260.0_f64, 20.0..1004.0_f64), 1..10),
+    ) {
+        let scene = build_scene(Scenario::Paper, 1);
+        let world = markers_in_world(&scene.tool, &scene.truth.samples[frame].pose.unwrap().world_from_tool);
+        let mut views = Views::new();
+        for (id, camera) in scene.rig.iter() {
+            views.insert(id, world.iter().map(|p| camera.project(p).unwrap()).collect());
+        }
+        let band = 3.0 * CorrespondConfig::default().epipolar_tolerance_px;
+        let mut kept = Vec::new();
+        for (camera, x, y) in strays {
+            let stray = Pixel::new(x, y);
+            let on_a_line = scene.rig.iter().filter(|(other, _)| other.0 != camera).any(|(other, _)| {
+                near_a_line(&scene, other, &views[&other], CameraId(camera), &stray, band)
+            });
+            if !on_a_line {
+                views.get_mut(&CameraId(camera)).unwrap().push(stray);
+                kept.push(camera);
+            }
+        }
+        let geometry = EpipolarGeometry::new(&scene.rig);
+        let found = correspond(&scene.rig, &geometry, &views, &CorrespondConfig::default());
+        // Markers are the first four blobs of each camera; strays come after.
+        for c in &found {
+            prop_assert!(c.blobs.values().all(|&i| i < world.len()), "a stray was used: {:?}", c.blobs);
+        }
+        prop_assert_eq!(found.len(), world.len());
+    }
+}
+
 fn brush() -> Vec<Point3> {
     build_scene(Scenario::Paper, 1).tool.markers_in_tool
 }
