@@ -17,6 +17,8 @@ import sys
 import time
 
 import cv2
+
+cv2.setNumThreads(1)
 import numpy as np
 
 folder = sys.argv[1]
