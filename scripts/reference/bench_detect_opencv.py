@@ -3,7 +3,9 @@
 1. Per frame (single thread, cv2.setNumThreads(1)): threshold (THRESH_BINARY at 28, where
    teachcam's automatic threshold lands on these frames: background 12 + 8 x noise 2) +
    connectedComponentsWithStats (8-connected; its centroids are the binary centroids), on the
-   criterion frames with 4, 16 and 50 markers. Median of 300 runs after 20 warm-up runs.
+   criterion frames with 4, 16 and 50 markers. Median wall time of 300 runs after 20 warm-up
+   runs, and CPU time per frame (process_time; compare with `--example detect_cpu`, which
+   matters on a loaded machine).
 2. The whole job of `teachcam detect REC -o detections.csv`: for every PNG of every camera,
    imread (grey) + the same detection, rows written to a CSV. Wall time, one process, and
    again with OpenCV's own threads (default setNumThreads).
@@ -37,16 +39,19 @@ def per_frame(root):
         for _ in range(20):
             detect(grey)
         times = []
+        cpu0 = time.process_time()
         for _ in range(300):
             t0 = time.perf_counter()
             stats, _ = detect(grey)
             times.append(time.perf_counter() - t0)
-        out[path.stem] = {"median_us": statistics.median(times) * 1e6, "blobs": len(stats)}
+        cpu_ms = (time.process_time() - cpu0) / 300 * 1e3
+        out[path.stem] = {"median_us": statistics.median(times) * 1e6, "cpu_ms_per_frame": cpu_ms, "blobs": len(stats)}
     return out
 
 
 def whole_job(root, out_csv):
     t0 = time.perf_counter()
+    cpu0 = time.process_time()
     frames = 0
     with open(out_csv, "w", newline="") as f:
         writer = csv.writer(f)
@@ -58,7 +63,7 @@ def whole_job(root, out_csv):
                 for (x, y), area in zip(centroids, stats[:, cv2.CC_STAT_AREA]):
                     writer.writerow([camera.name, index, f"{x:.4f}", f"{y:.4f}", f"{(area / 3.141592653589793) ** 0.5:.4f}"])
                 frames += 1
-    return {"frames": frames, "wall_s": time.perf_counter() - t0}
+    return {"frames": frames, "wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - cpu0}
 
 
 def main():

@@ -2,15 +2,19 @@
 
 pub mod align;
 pub mod c3d;
-pub mod check;
 pub mod calibrate;
+pub mod check;
 pub mod demo;
 pub mod detect;
 pub mod export;
 pub mod import;
 pub mod pivot;
 pub mod repeatability;
+pub mod report;
 pub mod simulate;
+pub mod smooth;
+pub mod smoothing_study;
+pub mod spectrum;
 pub mod tool_check;
 pub mod track;
 pub mod uncertainty;

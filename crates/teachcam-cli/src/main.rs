@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod plot;
 mod progress;
 
 /// Program an industrial robot by demonstration: marker tracking with calibrated cameras,
@@ -23,6 +24,7 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     Demo(cmd::demo::Args),
+    Report(cmd::report::Args),
     Simulate(cmd::simulate::Args),
     Detect(cmd::detect::Args),
     Repeatability(cmd::repeatability::Args),
@@ -33,6 +35,9 @@ enum Command {
     ToolCheck(cmd::tool_check::Args),
     C3d(cmd::c3d::Args),
     Import(cmd::import::Args),
+    Smooth(cmd::smooth::Args),
+    Spectrum(cmd::spectrum::Args),
+    SmoothingStudy(cmd::smoothing_study::Args),
     Check(cmd::check::Args),
     Export(cmd::export::Args),
     Align(cmd::align::Args),
@@ -68,6 +73,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
+        Command::Report(args) => cmd::report::run(&args),
         Command::Simulate(args) => cmd::simulate::run(&args),
         Command::Detect(args) => cmd::detect::run(&args),
         Command::Repeatability(args) => cmd::repeatability::run(&args),
@@ -78,6 +84,9 @@ fn main() -> ExitCode {
         Command::ToolCheck(args) => cmd::tool_check::run(&args),
         Command::C3d(args) => cmd::c3d::run(&args),
         Command::Import(args) => cmd::import::run(&args),
+        Command::Smooth(args) => cmd::smooth::run(&args),
+        Command::Spectrum(args) => cmd::spectrum::run(&args),
+        Command::SmoothingStudy(args) => cmd::smoothing_study::run(&args),
         Command::Check(args) => cmd::check::run(&args),
         Command::Export(args) => cmd::export::run(&args),
         Command::Align(args) => cmd::align::run(&args),

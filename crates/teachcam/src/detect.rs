@@ -187,6 +187,11 @@ pub struct DetectConfig {
     /// 0.8 px blur and 2-unit noise, 1.5–2 px gave the smallest errors (0.5 px: 3.5× worse,
     /// 4 px: 1.5× worse, from more noise pixels).
     pub window_margin_px: f64,
+    /// Noise variance (image units²) added per image unit of signal above the background:
+    /// shot noise, `1 / gain` in electrons per unit. Used only for [`Blob::center_std_px`].
+    /// Default 0: unknown without the camera's data sheet, so the prediction counts the
+    /// background noise alone and is low on bright blobs.
+    pub shot_noise_per_level: f64,
     /// Camera and marker size for the sphere-centre correction of [`CenterMethod::Refined`].
     /// Default `None`: centres stay at the ellipse centre (off by at most a few hundredths of a
     /// pixel at the paper's 1 m, see [`sphere`]).
@@ -203,6 +208,7 @@ impl Default for DetectConfig {
             max_regions: 20_000,
             method: CenterMethod::Refined,
             window_margin_px: 2.0,
+            shot_noise_per_level: 0.0,
             sphere: None,
         }
     }
@@ -272,8 +278,10 @@ pub struct Blob {
     /// `min(moment axis ratio, area / area of the enclosing circle)`: 1 for a disc, about 0.5
     /// for two touching equal discs.
     pub roundness: f64,
-    /// Predicted standard deviation of the centre from the background noise, pixels (the
-    /// noise propagated through the centroid; 0 on a noise-free image).
+    /// Predicted per-axis standard deviation of the centre, pixels: the background noise
+    /// (estimated from the image) and [`DetectConfig::shot_noise_per_level`] propagated
+    /// through the centroid (0 on a noise-free image). For `SmallestCircle`, the `Centroid`
+    /// prediction: the circle has no noise model, and scatters about ten times more.
     pub center_std_px: f64,
     /// Smallest box holding the blob's pixels.
     pub bounding_box: PixelBox,

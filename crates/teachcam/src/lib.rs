@@ -30,6 +30,8 @@
 //! - [`identify`]: which point is which marker, by distance-matrix voting (§II-B).
 //! - [`register`]: the tool's pose by SVD registration (§II-C).
 //! - [`track`]: the stages above per frame, frames in parallel.
+//! - [`smooth`]: the paper's four smoothers (low-pass, spline, Bezier, NURBS), SO(3)-aware,
+//!   with spectrum, cut-off suggestion and gap filling.
 //! - [`metrology`]: tool-tip uncertainty by Monte Carlo and first-order propagation (§IV).
 //! - [`robot`]: vision↔robot frames, IRB 120 kinematics, the robot check, RAPID/KRL/URScript (§V).
 //! - [`c3d`]: C3D motion-capture files in and out.
@@ -49,6 +51,7 @@ pub mod triangulate;
 pub mod identify;
 pub mod register;
 pub mod track;
+pub mod smooth;
 pub mod metrology;
 pub mod robot;
 pub mod c3d;

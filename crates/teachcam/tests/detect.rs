@@ -396,6 +396,36 @@ proptest::proptest! {
     }
 }
 
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(32))]
+    /// 16-bit images, values over the whole range: no panic, sane blobs.
+    #[test]
+    fn any_16_bit_image_gives_sane_blobs(
+        width in 1u32..32,
+        height in 1u32..32,
+        seed in 0u64..1_000_000,
+        threshold in proptest::option::of(0u32..65536),
+    ) {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let image: image::ImageBuffer<image::Luma<u16>, Vec<u16>> =
+            image::ImageBuffer::from_fn(width, height, |_, _| {
+                let v: u16 = rng.random();
+                image::Luma([if v < 50_000 { 3000 } else { v }])
+            });
+        let cfg = DetectConfig {
+            threshold: threshold.map_or(Threshold::Auto, Threshold::Fixed),
+            min_area_px: 1,
+            min_roundness: 0.0,
+            ..DetectConfig::default()
+        };
+        for blob in detect(&image, &cfg).unwrap() {
+            proptest::prop_assert!(blob.center.is_finite() && blob.radius_px.is_finite());
+            proptest::prop_assert!(blob.center_std_px.is_finite() && blob.center_std_px >= 0.0);
+        }
+    }
+}
+
 /// `shared/data`, or `None` (test skipped) when it is missing outside CI.
 fn shared_data() -> Option<std::path::PathBuf> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");

@@ -2,7 +2,9 @@
 //! sphere centres (the acceptance figures; numbers in `notes/detect.md`).
 
 use rayon::prelude::*;
-use teachcam::detect::{Blob, CenterMethod, DetectConfig, detect};
+use teachcam::detect::{
+    Blob, CenterMethod, DetectConfig, RepeatabilityConfig, detect, repeatability,
+};
 use teachcam::sim::{Scenario, build_scene, render_frame};
 
 /// Working distances of the paper's rig, camera centre to marker, millimetres.
@@ -115,4 +117,53 @@ fn paper_scenario_accuracy_against_the_exact_sphere_centre_projections() {
     // The paper's method, for comparison: several times worse, and never missing either.
     assert_eq!(figures[3].missed, 0);
     assert!(figures[3].mean > 3.0 * refined.mean);
+}
+
+#[test]
+fn static_scenario_spread_matches_the_predicted_centre_noise() {
+    // The brush at rest: only the image noise changes from frame to frame. With the
+    // renderer's shot-noise gain given, the detector's predicted centre std must match the
+    // measured spread (12 markers × 30 frames: the rms over markers is known to about 4 %).
+    let scene = build_scene(Scenario::Static, 3);
+    let frames: Vec<usize> = (0..30).collect();
+    let per_frame: Vec<Vec<Vec<Blob>>> = frames
+        .par_iter()
+        .map(|&frame| {
+            render_frame(&scene, frame, 11)
+                .into_iter()
+                .map(|view| {
+                    let camera = &scene.rig.cameras[view.camera.0];
+                    let cfg = DetectConfig {
+                        shot_noise_per_level: scene.render.shot_noise_dn_per_dn,
+                        ..DetectConfig::for_marker(
+                            camera,
+                            scene.tool.marker_diameter_mm,
+                            NEAR_MM,
+                            FAR_MM,
+                        )
+                    };
+                    match detect(&view.image, &cfg) {
+                        Ok(blobs) => blobs,
+                        Err(e) => panic!("frame {frame}: {e}"),
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let mut measured = Vec::new();
+    let mut predicted = Vec::new();
+    for camera in 0..scene.rig.len() {
+        let blobs: Vec<Vec<Blob>> = per_frame.iter().map(|f| f[camera].clone()).collect();
+        let spreads = repeatability(&blobs, &RepeatabilityConfig::default());
+        assert_eq!(spreads.len(), scene.tool.markers_in_tool.len());
+        for s in spreads {
+            assert_eq!(s.frames, frames.len());
+            measured.push(s.std_px);
+            predicted.push(s.predicted_std_px);
+        }
+    }
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+    let (m, p) = (rms(&measured), rms(&predicted));
+    eprintln!("static: measured centre std {m:.5} px, predicted {p:.5} px");
+    assert!((m / p - 1.0).abs() < 0.15, "measured {m} predicted {p}");
 }

@@ -5,14 +5,14 @@ use std::time::Instant;
 
 use anyhow::Context;
 use serde::Serialize;
-use teachcam::io::trajectory::read_trajectory;
+use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::metrology::{first_order, monte_carlo};
-use teachcam::robot::check::check_path;
 use teachcam::sim::{Scenario, build_scene, write_scene};
+use teachcam::smooth::{SmoothConfig, smooth};
 use teachcam::track::TrackConfig;
 use teachcam::trajectory::Trajectory;
 
-use super::check::{CellArgs, resolve};
+use super::check::CellArgs;
 use crate::progress::Progress;
 
 /// Where the demo places the work object in the IRB 120's base frame: 350 mm in front of the
@@ -67,6 +67,7 @@ struct Summary {
     pixel_noise_px: f64,
     robot_check_passed: bool,
     robot_peak_speed_fraction: f64,
+    rapid_moves: usize,
     stage_seconds: Vec<(String, f64)>,
     files: Vec<String>,
 }
@@ -107,7 +108,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // 2. Detect and track on the images.
     let start = Instant::now();
     let raw_path = out.join("raw.csv");
-    super::track::run(&super::track::Args {
+    super::track::track_to_files(&super::track::Args {
         recording: recording.clone(),
         rig: recording.join("rig.json"),
         tool: recording.join("tool.json"),
@@ -126,7 +127,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let raw = read_trajectory(&raw_path)?;
     let (raw_rms, raw_max, tracked) = tip_errors(&scene.truth, &raw);
 
-    // 3. Uncertainty at the paper's pixel noise, at the middle of the stroke.
+    // 3. Smooth: zero-phase low-pass at 10 Hz, the paper's choice for painting.
+    let start = Instant::now();
+    let smoothed = smooth(&raw, &SmoothConfig::default())?;
+    let smoothed_path = out.join("smoothed.csv");
+    write_trajectory(&smoothed_path, &smoothed)?;
+    let (smoothed_rms, _, _) = tip_errors(&scene.truth, &smoothed);
+    timed("smooth (low-pass 10 Hz)", start);
+
+    // 4. Uncertainty at the paper's pixel noise, at the middle of the stroke.
     let start = Instant::now();
     let middle = scene.truth.samples[scene.truth.len() / 2]
         .pose
@@ -144,7 +153,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let fo = first_order(&scene.rig, &scene.tool, &middle, PAPER_PIXEL_NOISE)?;
     timed("uncertainty (10,000 trials)", start);
 
-    // 4. Robot: check on the IRB 120, then the RAPID program.
+    // 5. Robot: check on the IRB 120, then the RAPID program of the smoothed trajectory.
     let start = Instant::now();
     let cell = CellArgs {
         robot: "irb120".into(),
@@ -154,18 +163,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         speed_fraction: 1.0,
         max_acceleration_deg_s2: None,
     };
-    let program_input = raw_path.clone();
-    let resolved = resolve(&program_input, &cell)?;
-    let report = check_path(
-        &resolved.model,
-        &resolved.cell,
-        &resolved.targets,
-        &resolved.config,
-    );
     let rapid_path = out.join("stroke.mod");
-    super::export::run(&super::export::Args {
+    let written = super::export::write_program(&super::export::Args {
         dialect: super::export::Dialect::Rapid,
-        trajectory: program_input,
+        trajectory: smoothed_path.clone(),
         cell,
         output: rapid_path.clone(),
         tolerance_mm: 0.5,
@@ -181,19 +182,43 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         frames_tracked: tracked,
         raw_tip_error_rms_mm: raw_rms,
         raw_tip_error_max_mm: raw_max,
-        smoothed_tip_error_rms_mm: None,
+        smoothed_tip_error_rms_mm: Some(smoothed_rms),
         monte_carlo_tip_rms_mm: mc.uncertainty.tip_rms_mm,
         first_order_tip_rms_mm: fo.tip_rms_mm,
         paper_tip_uncertainty_mm: PAPER_TIP_UNCERTAINTY_MM,
         pixel_noise_px: PAPER_PIXEL_NOISE,
-        robot_check_passed: report.passes(),
-        robot_peak_speed_fraction: report.peak_speed_ratio,
+        robot_check_passed: written.report.passes(),
+        robot_peak_speed_fraction: written.report.peak_speed_ratio,
+        rapid_moves: written.moves,
         stage_seconds: stages,
-        files: [&recording, &raw_path, &rapid_path]
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect(),
+        files: [
+            &recording,
+            &raw_path,
+            &smoothed_path,
+            &rapid_path,
+            &out.join("report.html"),
+        ]
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect(),
     };
+    let run_json = serde_json::json!({ "wobj": DEMO_WOBJ, "tcp": DEMO_TCP, "summary": summary });
+    teachcam::io::write_atomically(
+        &out.join("run.json"),
+        serde_json::to_string_pretty(&run_json)?.as_bytes(),
+    )?;
+
+    // 6. The report.
+    let start = Instant::now();
+    super::report::write_report(&super::report::Args {
+        run_dir: out.clone(),
+        output: None,
+        wobj: None,
+    })?;
+    let mut summary = summary;
+    summary
+        .stage_seconds
+        .push(("report".into(), start.elapsed().as_secs_f64()));
     print_summary(&summary, args)?;
     Ok(())
 }
@@ -230,13 +255,14 @@ fn print_summary(s: &Summary, args: &Args) -> anyhow::Result<()> {
         s.paper_tip_uncertainty_mm
     );
     println!(
-        "  robot         IRB 120 check {} (peak joint speed {:.0} % of the limit)",
+        "  robot         IRB 120 check {} (peak joint speed {:.0} % of the limit); RAPID: {} moves",
         if s.robot_check_passed {
             "passed"
         } else {
             "FAILED"
         },
-        100.0 * s.robot_peak_speed_fraction
+        100.0 * s.robot_peak_speed_fraction,
+        s.rapid_moves
     );
     for (stage, seconds) in &s.stage_seconds {
         println!("  time          {stage:<28} {seconds:>6.2} s");

@@ -17,8 +17,9 @@ use crate::progress::Progress;
 ///
 /// Each frame is thresholded (automatically from its background and noise unless
 /// `--threshold` is given), its 8-connected bright regions are measured, and the regions that
-/// are too small, too large, not round (two touching markers) or cut by the image border are
-/// left out. Frames run in parallel.
+/// are too small, too large or cut by the image border are left out. A region that is not
+/// round (markers whose images merged) is split when its markers come apart at half contrast
+/// with 2 px between their edges, and left out otherwise. Frames run in parallel.
 ///
 /// Output columns: `camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak`
 /// (camera = the sub-folder's name, frame = 0-based index, centre in OpenCV pixels, radius of
@@ -77,6 +78,10 @@ pub struct DetectOptions {
     /// Farthest distance from a camera to a marker, millimetres (with --rig).
     #[arg(long, default_value_t = 3000.0)]
     pub far: f64,
+    /// Shot noise of the camera: noise variance per image unit of signal (1 / gain in
+    /// electrons per unit). Only the predicted centre noise (`center_std_px`) uses it.
+    #[arg(long, default_value_t = 0.0)]
+    pub shot_noise: f64,
 }
 
 /// The blobs of one frame of one camera.
@@ -108,6 +113,13 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
             "--near and --far must satisfy 0 < near < far, got {} and {}",
             args.near,
             args.far
+        ))
+        .rejected();
+    }
+    if !(args.shot_noise.is_finite() && args.shot_noise >= 0.0) {
+        return Err(anyhow::anyhow!(
+            "--shot-noise must be a non-negative number, got {}",
+            args.shot_noise
         ))
         .rejected();
     }
@@ -151,6 +163,7 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
             };
             cfg.method = args.method;
             cfg.min_roundness = args.min_roundness;
+            cfg.shot_noise_per_level = args.shot_noise;
             if let Some(t) = args.threshold {
                 cfg.threshold = Threshold::Fixed(t);
             }
@@ -166,16 +179,23 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
 }
 
 /// Detects the blobs of every frame of every camera, frames in parallel, in camera then frame
-/// order; `on_frame` is called after each frame.
+/// order; `configs[i]` is the configuration of `recording.cameras[i]`. `on_frame` is called
+/// after each frame.
 ///
 /// # Errors
 /// Rejected data naming the camera, frame and file of the first frame that cannot be read or
-/// searched.
+/// searched; an internal error when `configs` does not have one entry per camera.
 pub fn detect_recording(
     recording: &Recording,
     configs: &[DetectConfig],
     on_frame: &(dyn Fn() + Sync),
 ) -> anyhow::Result<Vec<FrameBlobs>> {
+    anyhow::ensure!(
+        configs.len() == recording.cameras.len(),
+        "internal: {} detector configurations for {} cameras",
+        configs.len(),
+        recording.cameras.len()
+    );
     let jobs: Vec<(usize, usize)> = recording
         .cameras
         .iter()

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use teachcam::io::write_atomically;
-use teachcam::robot::check::check_path;
+use teachcam::robot::check::{CheckReport, check_path};
 use teachcam::robot::krl::krl_program;
 use teachcam::robot::program::build_program;
 use teachcam::robot::rapid::{RapidConfig, rapid_module};
@@ -62,12 +62,22 @@ pub struct Args {
     pub force: bool,
 }
 
-/// Run the command.
+/// What [`write_program`] wrote.
+#[derive(Debug)]
+pub struct Written {
+    /// Moves in the program (after simplification).
+    pub moves: usize,
+    /// The robot check of every frame.
+    pub report: CheckReport,
+}
+
+/// Checks the trajectory on the robot and writes the program; prints the check's summary only
+/// when the check fails.
 #[expect(
     clippy::print_stdout,
-    reason = "the check's summary is part of the output"
+    reason = "a failing check's summary is part of the output"
 )]
-pub fn run(args: &Args) -> anyhow::Result<()> {
+pub fn write_program(args: &Args) -> anyhow::Result<Written> {
     if !(args.tolerance_mm > 0.0 && args.tolerance_deg > 0.0) {
         anyhow::bail!("--tolerance-mm and --tolerance-deg must be positive");
     }
@@ -118,6 +128,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         )?,
         Dialect::Csv => write_atomically(&args.output, poses_csv(&report).as_bytes())?,
     }
+    Ok(Written {
+        moves: program.moves.len(),
+        report,
+    })
+}
+
+/// Run the command.
+#[expect(clippy::print_stdout, reason = "the command's report")]
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let Written { moves, report } = write_program(args)?;
     if args.dialect == Dialect::Csv {
         println!(
             "wrote {} ({} frames)",
@@ -126,9 +146,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
     } else {
         println!(
-            "wrote {} ({} moves from {} frames)",
+            "wrote {} ({moves} moves from {} frames)",
             args.output.display(),
-            program.moves.len(),
             report.frames.len()
         );
     }

@@ -11,14 +11,15 @@ use crate::Rejected;
 use crate::cmd::detect::{DetectOptions, FrameBlobs, configs, detect_recording};
 use crate::progress::Progress;
 
-/// Repeatability of the blob centres of static markers: every frame of a recording of markers
-/// at rest (e.g. `teachcam simulate --scenario static`) is searched, each marker's centre is
-/// followed over the frames, and the standard deviation of the centre is reported against the
-/// blob's area, per camera: the paper's Fig. 10 (it found 0.15 px with its smallest-circle
-/// centre).
+/// Repeatability of blob centres of static markers (the paper's Fig. 10).
+///
+/// Every frame of a recording of markers at rest (e.g. `teachcam simulate --scenario static`)
+/// is searched, each marker's centre is followed over the frames, and the standard deviation
+/// of the centre is reported against the blob's area, per camera. The paper found 0.15 px with
+/// its smallest-circle centre.
 ///
 /// Output columns: `camera,x_px,y_px,area_px,frames,std_x_px,std_y_px,std_px,predicted_std_px`
-/// (`std_px` per axis, `predicted_std_px` from the background noise). `--plot` draws `std_px`
+/// (`std_px` per axis, `predicted_std_px` from the background noise and `--shot-noise`). `--plot` draws `std_px`
 /// against `area_px` as SVG.
 ///
 /// Example: `teachcam repeatability rec -o repeatability.csv --plot repeatability.svg --method smallest-circle`

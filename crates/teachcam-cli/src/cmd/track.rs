@@ -12,6 +12,7 @@ use teachcam::io::trajectory::write_trajectory;
 use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
 use teachcam::metrology::first_order;
 use teachcam::track::{FrameTrack, TrackConfig, Tracker};
+use teachcam::trajectory::Trajectory;
 
 use crate::Rejected;
 use crate::cmd::detect::detect_recording;
@@ -71,6 +72,23 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let trajectory = track_to_files(args)?;
+    let tracked = trajectory
+        .samples
+        .iter()
+        .filter(|s| s.pose.is_some())
+        .count();
+    eprintln!(
+        "{tracked} of {} frames tracked -> {}",
+        trajectory.len(),
+        args.output.display()
+    );
+    Ok(())
+}
+
+/// Detects, tracks and writes the trajectory (and the optional files); prints nothing but a
+/// progress bar on a terminal.
+pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
     let mut config = TrackConfig::default();
@@ -149,16 +167,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(path) = &args.diagnostics {
         write_atomically(path, diagnostics_csv(&tracks).as_bytes())?;
     }
-    let tracked = trajectory
-        .samples
-        .iter()
-        .filter(|s| s.pose.is_some())
-        .count();
-    eprintln!(
-        "{tracked} of {frame_count} frames tracked -> {}",
-        args.output.display()
-    );
-    Ok(())
+    Ok(trajectory)
 }
 
 fn markers_csv(tracks: &[FrameTrack]) -> String {

@@ -33,7 +33,10 @@ impl Circle {
         let center = Pixel::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y));
         Self {
             center,
-            radius_px: 0.5 * a.distance(b),
+            radius_px: 0.5
+                * (a.x - b.x)
+                    .mul_add(a.x - b.x, (a.y - b.y) * (a.y - b.y))
+                    .sqrt(),
         }
     }
 
@@ -64,7 +67,7 @@ impl Circle {
         let uy = (bx * c2 - cx * b2) / d;
         Self {
             center: Pixel::new(a.x + ux, a.y + uy),
-            radius_px: ux.hypot(uy),
+            radius_px: ux.mul_add(ux, uy * uy).sqrt(),
         }
     }
 }

@@ -1,6 +1,6 @@
 //! Connected components of the pixels above a threshold, in one pass, as runs.
 //!
-//! Each row is scanned once; a stretch of [`CHUNK`] pixels whose maximum is at or below the
+//! Each row is scanned once; a stretch of `CHUNK` (128) pixels whose maximum is at or below the
 //! threshold is skipped whole (the compiler turns that maximum into SIMD), so a dark frame
 //! costs about one memory read. The runs of foreground pixels are joined to the runs of the
 //! row above that touch them, 8-connected (a run `[a, b]` touches `[c, d]` when
@@ -10,7 +10,7 @@
 use super::{GrayView, Intensity};
 
 /// Pixels examined at once when skipping dark stretches.
-const CHUNK: usize = 64;
+const CHUNK: usize = 128;
 
 /// A horizontal run of foreground pixels: columns `x_start..=x_end` of row `y`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -140,11 +140,11 @@ fn find_runs<P: Intensity>(image: GrayView<'_, P>, threshold: u32) -> Vec<Run> {
     runs
 }
 
-/// True when some value of the chunk is above `t`; without an early exit, so that it
-/// vectorises.
+/// True when some value of the chunk is above `t`: the chunk's maximum, without an early
+/// exit, so that it vectorises (`pmaxub` for 8-bit on any x86-64).
 #[inline]
 fn any_above<P: Intensity>(chunk: &[P], t: P) -> bool {
-    chunk.iter().fold(false, |found, &v| found | (v > t))
+    chunk.iter().fold(P::zero(), |m, &v| m.max(v)) > t
 }
 
 /// Unites each run with the runs of the previous row it touches (8-connectivity).

@@ -3,7 +3,8 @@
 //! For intensities `I`, background `b` and noise `σ`, over a set `S` of pixels at `x_i`:
 //! ```text
 //! centroid  c = Σ w_i x_i / Σ w_i,        w_i = I_i − b
-//! noise     std(c_x) = σ √(Σ (x_i − c_x)²) / Σ w_i      (each w_i carries noise σ)
+//! noise     var(c_x) = Σ var(I_i) (x_i − c_x)² / (Σ w_i)²,  var(I_i) = σ² + g w_i
+//!           (background noise σ, shot noise g per unit of signal; per-axis std reported)
 //! ```
 //! `Centroid` sums over the blob's own pixels, which cuts the blurred edge at the threshold and
 //! so depends on where the pixel grid falls. `Refined` sums over a disc around the blob, of the
@@ -85,6 +86,13 @@ pub fn exclusive_windows<P: Intensity>(
     exclusive
 }
 
+/// The pixel noise model: variance `background_std² + shot_per_level · (I − b)`.
+#[derive(Debug, Clone, Copy)]
+struct Noise {
+    background_std: f64,
+    shot_per_level: f64,
+}
+
 /// Sums of weights and weighted coordinates, relative to an origin for accuracy.
 #[derive(Debug, Default, Clone, Copy)]
 struct Moments {
@@ -97,26 +105,15 @@ struct Moments {
     xx: f64,
     yy: f64,
     xy: f64,
+    wxx: f64,
+    wyy: f64,
 }
 
 impl Moments {
-    #[inline]
-    fn add(&mut self, x: f64, y: f64, w: f64) {
-        self.count += 1.0;
-        self.w += w;
-        self.wx += w * x;
-        self.wy += w * y;
-        self.x += x;
-        self.y += y;
-        self.xx += x * x;
-        self.yy += y * y;
-        self.xy += x * y;
-    }
-
     /// Adds a row segment of `n` pixels starting at column `x0` of row `y`, whose weights sum
-    /// to `w` and whose weights times their offset from `x0` sum to `wx`: the sums of the
-    /// coordinates over the segment are arithmetic series.
-    fn add_row(&mut self, x0: f64, n: f64, y: f64, w: f64, wx: f64) {
+    /// to `w`, whose weights times their offset `k` from `x0` sum to `wx`, and times `k²` to
+    /// `wx2`: the sums of the coordinates over the segment are arithmetic series.
+    fn add_row(&mut self, x0: f64, n: f64, y: f64, w: f64, wx: f64, wx2: f64) {
         // Σ_{k<n} k = n(n−1)/2,  Σ_{k<n} k² = (n−1)n(2n−1)/6
         let sum_k = 0.5 * n * (n - 1.0);
         let sum_k2 = (n - 1.0) * n * (2.0 * n - 1.0) / 6.0;
@@ -129,18 +126,24 @@ impl Moments {
         self.xx += n * x0 * x0 + 2.0 * x0 * sum_k + sum_k2;
         self.yy += n * y * y;
         self.xy += y * (n * x0 + sum_k);
+        self.wxx += x0 * x0 * w + 2.0 * x0 * wx + wx2;
+        self.wyy += y * y * w;
     }
 
-    /// The weighted centroid and its predicted per-axis standard deviation for noise `σ`.
-    fn centroid(&self, noise_std: f64) -> Option<(f64, f64, f64)> {
+    /// The weighted centroid and its predicted per-axis standard deviation for pixel noise
+    /// of variance `σ² + g (I − b)` (background noise `σ`, shot noise `g` per unit of signal).
+    fn centroid(&self, noise: &Noise) -> Option<(f64, f64, f64)> {
         if self.w.is_nan() || self.w <= 0.0 {
             return None;
         }
         let (cx, cy) = (self.wx / self.w, self.wy / self.w);
         let spread_x = self.xx - 2.0 * cx * self.x + self.count * cx * cx;
         let spread_y = self.yy - 2.0 * cy * self.y + self.count * cy * cy;
-        let std = noise_std * (0.5 * (spread_x + spread_y)).max(0.0).sqrt() / self.w;
-        Some((cx, cy, std))
+        let weighted_x = self.wxx - 2.0 * cx * self.wx + cx * cx * self.w;
+        let weighted_y = self.wyy - 2.0 * cy * self.wy + cy * cy * self.w;
+        let variance = noise.background_std.powi(2) * 0.5 * (spread_x + spread_y)
+            + noise.shot_per_level * 0.5 * (weighted_x + weighted_y);
+        Some((cx, cy, variance.max(0.0).sqrt() / self.w))
     }
 }
 
@@ -154,6 +157,7 @@ fn disc_centroid<P: Intensity>(
     start: (f64, f64),
     radius_px: f64,
     background: &Background,
+    noise: &Noise,
 ) -> Option<((f64, f64, f64), f64)> {
     let mut center = start;
     let mut result = None;
@@ -178,15 +182,17 @@ fn disc_centroid<P: Intensity>(
                 continue;
             }
             let row = &image.row(y as usize)[x_lo as usize..=x_hi as usize];
-            let (mut w, mut wx) = (0.0, 0.0);
+            let (mut w, mut wx, mut wx2) = (0.0, 0.0, 0.0);
             for (k, v) in row.iter().enumerate() {
                 let v = f64::from(v.level()) - background.level;
+                let k = k as f64;
                 w += v;
-                wx += v * k as f64;
+                wx += v * k;
+                wx2 += v * k * k;
             }
-            m.add_row(f64::from(x_lo) - origin.0, row.len() as f64, dy, w, wx);
+            m.add_row(f64::from(x_lo) - origin.0, row.len() as f64, dy, w, wx, wx2);
         }
-        let c = m.centroid(background.noise_std)?;
+        let c = m.centroid(noise)?;
         center = (c.0, c.1);
         result = Some((c, m.w));
     }
@@ -215,12 +221,29 @@ pub fn measure<P: Intensity>(
         let y = run.y as usize;
         let row = image.row(y);
         let dy = f64::from(run.y) - origin_y;
-        for x in run.x_start..=run.x_end {
-            let v = row[x as usize].level();
+        let (mut sum, mut sum_k, mut sum_k2) = (0u64, 0u64, 0u64);
+        for (k, v) in row[run.x_start as usize..=run.x_end as usize]
+            .iter()
+            .enumerate()
+        {
+            let v = v.level();
             peak = peak.max(v);
-            total += f64::from(v);
-            own.add(f64::from(x) - origin_x, dy, f64::from(v) - b);
+            sum += u64::from(v);
+            sum_k += k as u64 * u64::from(v);
+            sum_k2 += (k * k) as u64 * u64::from(v);
         }
+        // Weights `v − b`: Σ (v − b) = Σ v − n b, Σ k (v − b) = Σ k v − b n (n − 1) / 2 and
+        // Σ k² (v − b) = Σ k² v − b (n − 1) n (2n − 1) / 6.
+        let n = run.len() as f64;
+        total += sum as f64;
+        own.add_row(
+            f64::from(run.x_start) - origin_x,
+            n,
+            dy,
+            sum as f64 - n * b,
+            sum_k as f64 - b * 0.5 * n * (n - 1.0),
+            sum_k2 as f64 - b * (n - 1.0) * n * (2.0 * n - 1.0) / 6.0,
+        );
         endpoints.push(Pixel::new(f64::from(run.x_start), f64::from(run.y)));
         if run.x_end != run.x_start {
             endpoints.push(Pixel::new(f64::from(run.x_end), f64::from(run.y)));
@@ -243,7 +266,11 @@ pub fn measure<P: Intensity>(
     let plateau = plateau_sum / plateau_count.max(1.0);
 
     let circle = super::circle::smallest_enclosing_circle(&endpoints)?;
-    let (own_x, own_y, own_std) = own.centroid(background.noise_std)?;
+    let noise = Noise {
+        background_std: background.noise_std,
+        shot_per_level: cfg.shot_noise_per_level.max(0.0),
+    };
+    let (own_x, own_y, own_std) = own.centroid(&noise)?;
     let (refined, flux) = match window {
         Some(w) if plateau > b => {
             let radius_px = (own.w / (std::f64::consts::PI * (plateau - b))).sqrt();
@@ -254,6 +281,7 @@ pub fn measure<P: Intensity>(
                 (own_x, own_y),
                 radius_px + cfg.window_margin_px,
                 background,
+                &noise,
             )
             .unwrap_or(((own_x, own_y, own_std), own.w))
         }
@@ -325,7 +353,7 @@ const SPLIT_LEVEL: f64 = 0.5;
 const SPLIT_MIN_MARGIN_PX: f64 = 1.0;
 
 /// The markers of a region that holds several (images that nearly touch and merged at the
-/// detection threshold): the region's own pixels are labelled again at [`SPLIT_LEVEL`], and
+/// detection threshold): the region's own pixels are labelled again at `SPLIT_LEVEL` (half its contrast), and
 /// each part is measured with a `Refined` disc that stops halfway between its edge and the
 /// nearest other part's, so that no part's disc holds another's edge. Parts closer than
 /// `2 × SPLIT_MIN_MARGIN_PX` to another, and parts that fail the size or roundness limits,

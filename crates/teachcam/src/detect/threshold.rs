@@ -48,31 +48,26 @@ impl Background {
 /// empty image.
 #[must_use]
 pub fn estimate_background<P: Intensity>(image: GrayView<'_, P>) -> Background {
-    let mut sample: Vec<u32> = Vec::with_capacity(
-        image.width.div_ceil(SAMPLE_STEP_X) * image.height.div_ceil(SAMPLE_STEP_Y),
-    );
+    let mut histogram = vec![0u32; P::FULL_SCALE as usize + 1];
+    let mut count = 0usize;
     // Offset the sampled rows so that a 1-row image and the middle of small images are seen.
     let first_row = (image.height / 2) % SAMPLE_STEP_Y;
     for y in (first_row..image.height).step_by(SAMPLE_STEP_Y) {
-        sample.extend(
-            image
-                .row(y)
-                .iter()
-                .step_by(SAMPLE_STEP_X)
-                .map(|v| v.level()),
-        );
+        let row = image.row(y);
+        let mut x = 0;
+        while x < row.len() {
+            histogram[row[x].level() as usize] += 1;
+            x += SAMPLE_STEP_X;
+        }
+        count += row.len().div_ceil(SAMPLE_STEP_X);
     }
-    if sample.is_empty() {
+    if count == 0 {
         return Background {
             level: 0.0,
             noise_std: 0.0,
         };
     }
-    let mut histogram = vec![0u32; P::FULL_SCALE as usize + 1];
-    for &v in &sample {
-        histogram[v as usize] += 1;
-    }
-    let n = sample.len() as f64;
+    let n = count as f64;
     let quantile = |q: f64| interpolated_quantile(&histogram, q * n);
     Background {
         level: quantile(0.5),
