@@ -38,16 +38,13 @@ pub struct Args {
     /// Seed of the image noise and the random glints: the same seed gives the same files.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-<<<<<<< HEAD
+    /// Write only the first N frames of the scenario.
+    #[arg(long)]
+    pub frames: Option<usize>,
     /// Calibration scenarios: board placements held around the working volume, besides the
     /// one on the work object.
     #[arg(long, default_value_t = 30)]
     pub views: usize,
-=======
-    /// Write only the first N frames of the scenario.
-    #[arg(long)]
-    pub frames: Option<usize>,
->>>>>>> main
 }
 
 /// Run the command.
@@ -60,7 +57,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             names.join(", ")
         )
     })?;
-<<<<<<< HEAD
     if scenario.is_calibration() {
         let scene = calibration_scene(scenario.rig(), args.views, args.seed);
         let progress = Progress::new("simulate", scene.placements.len() as u64);
@@ -76,8 +72,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    let scene = build_scene(scenario, args.seed);
-=======
     let mut scene = build_scene(scenario, args.seed);
     if let Some(frames) = args.frames {
         if frames == 0 {
@@ -85,7 +79,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         scene.truth.samples.truncate(frames);
     }
->>>>>>> main
     let progress = Progress::new("simulate", scene.truth.len() as u64);
     write_scene(&scene, &args.out, args.seed, &|| progress.tick())
         .with_context(|| format!("writing the simulation to {}", args.out.display()))?;
