@@ -58,6 +58,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         )
     })?;
     if scenario.is_calibration() {
+        if args.frames.is_some() {
+            anyhow::bail!(
+                "--frames applies to recordings; scenario '{}' has --views",
+                scenario.name()
+            );
+        }
         let scene = calibration_scene(scenario.rig(), args.views, args.seed);
         let progress = Progress::new("simulate", scene.placements.len() as u64);
         write_calibration(&scene, &args.out, args.seed, &|| progress.tick())
