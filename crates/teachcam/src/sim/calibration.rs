@@ -67,7 +67,7 @@ pub struct CalibrationScene {
 /// -y puts every inner corner at least 88 px inside every image of the paper's rig and the
 /// four-camera rig (found by a search over in-plane turns and offsets; no pose on z = 0 puts
 /// the whole 550 x 400 mm sheet inside all three images of the paper's rig).
-const WORLD_BOARD_CENTRE_MM: [f64; 2] = [0.0, -70.0];
+pub const WORLD_BOARD_CENTRE_MM: [f64; 2] = [0.0, -70.0];
 
 /// The world view's images show its corners at least this far inside the image, pixels: the
 /// corner finder's 23 px window and 5 px ring fit, though the sheet's margin may be cut.
