@@ -36,7 +36,8 @@
 //! - [`robot`]: vision↔robot frames, IRB 120 kinematics, the robot check, RAPID/KRL/URScript (§V).
 //! - [`c3d`]: C3D motion-capture files in and out.
 //! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
-//! - [`sim`]: the simulator that feeds every test, benchmark and the demo.
+//! - [`sim`]: the simulator that feeds every test, benchmark and the demo (recordings, and
+//!   chessboard views for rig calibration).
 
 pub mod geometry;
 pub mod camera;

@@ -9,6 +9,8 @@
 //! seed: each (camera, frame) draws its noise from its own seeded stream, so frames can be
 //! rendered in any order or in parallel.
 
+pub mod board;
+pub mod calibration;
 pub mod render;
 pub mod scenario;
 
@@ -38,15 +40,22 @@ pub enum Scenario {
     Occluded,
     /// The paper's stroke seen by four cameras.
     FourCameras,
+    /// Chessboard views for rig calibration (the paper's rig): see [`calibration`]. Written by
+    /// [`calibration::write_calibration`], not as a recording.
+    Calibration,
+    /// Chessboard views for calibrating the four-camera rig.
+    FourCamerasCalibration,
 }
 
 impl Scenario {
     /// Every scenario, for listings and help.
-    pub const ALL: [Scenario; 4] = [
+    pub const ALL: [Scenario; 6] = [
         Scenario::Paper,
         Scenario::Static,
         Scenario::Occluded,
         Scenario::FourCameras,
+        Scenario::Calibration,
+        Scenario::FourCamerasCalibration,
     ];
 
     /// The scenario's command-line name.
@@ -57,6 +66,26 @@ impl Scenario {
             Self::Static => "static",
             Self::Occluded => "occluded",
             Self::FourCameras => "four-cameras",
+            Self::Calibration => "calibration",
+            Self::FourCamerasCalibration => "four-cameras-calibration",
+        }
+    }
+
+    /// True for the chessboard scenarios, which [`calibration::write_calibration`] writes
+    /// instead of a recording.
+    #[must_use]
+    pub const fn is_calibration(self) -> bool {
+        matches!(self, Self::Calibration | Self::FourCamerasCalibration)
+    }
+
+    /// The scenario's rig: the paper's three cameras, or four.
+    #[must_use]
+    pub fn rig(self) -> Rig {
+        match self {
+            Self::FourCameras | Self::FourCamerasCalibration => scenario::four_camera_rig(),
+            Self::Paper | Self::Static | Self::Occluded | Self::Calibration => {
+                scenario::paper_rig()
+            }
         }
     }
 
@@ -136,16 +165,14 @@ pub struct Scene {
 /// Frames of the paper's stroke: 4 s at the paper's 30 Hz trigger.
 const STROKE_FRAMES: usize = 120;
 
-/// Builds a scenario's scene. `seed` places the random glints of `occluded`.
+/// Builds a scenario's recording scene. `seed` places the random glints of `occluded`. The
+/// calibration scenarios have no recording: this gives their rig filming the paper's stroke;
+/// their board views come from [`calibration::calibration_scene`].
 #[must_use]
 pub fn build_scene(scenario: Scenario, seed: u64) -> Scene {
     let fps = 30.0;
     let tool = scenario::paper_brush();
-    let rig = if scenario == Scenario::FourCameras {
-        scenario::four_camera_rig()
-    } else {
-        scenario::paper_rig()
-    };
+    let rig = scenario.rig();
     let frames = if scenario == Scenario::Static {
         100
     } else {

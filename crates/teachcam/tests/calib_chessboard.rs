@@ -7,12 +7,16 @@
 )]
 
 use image::GrayImage;
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use teachcam::calib::Chessboard;
 use teachcam::calib::chessboard::{CornerConfig, find_chessboard_corners};
 use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
 use teachcam::geometry::{Point3, Pose, pose_from_parts};
+use teachcam::sim::board::{BoardLook, render_board};
+use teachcam::sim::render::RenderConfig;
 
 const BOARD: Chessboard = Chessboard {
     inner_cols: 9,
@@ -38,85 +42,28 @@ fn camera(pose: Pose) -> Camera {
     }
 }
 
-/// Renders the board (10x7 squares, the square between corners 0, 1, 9, 10 dark, a white
-/// margin of one square) by 8x8 supersampling through the inverse homography
-/// `K [r1 r2 t]`, lit by `light(x, y)`, then blurred with a Gaussian of `blur_px`.
-fn render(camera: &Camera, light: impl Fn(f64, f64) -> f64, blur_px: f64) -> GrayImage {
-    let r = camera.camera_from_world.rotation.to_rotation_matrix();
-    let t = camera.camera_from_world.translation.vector;
-    let h = camera.intrinsics.matrix()
-        * Matrix3::from_columns(&[
-            r.matrix().column(0).into_owned(),
-            r.matrix().column(1).into_owned(),
-            t,
-        ]);
-    let h_inv = h.try_inverse().unwrap_or_else(Matrix3::zeros);
-    let (w, hgt) = (640usize, 480usize);
-    let s = BOARD.square_mm;
-    let mut values = vec![0.0f64; w * hgt];
-    let n = 8;
-    for y in 0..hgt {
-        for x in 0..w {
-            let mut sum = 0.0;
-            for sy in 0..n {
-                for sx in 0..n {
-                    let px = x as f64 - 0.5 + (sx as f64 + 0.5) / n as f64;
-                    let py = y as f64 - 0.5 + (sy as f64 + 0.5) / n as f64;
-                    let b = h_inv * Vector3::new(px, py, 1.0);
-                    let (bx, by) = (b.x / b.z, b.y / b.z);
-                    // Square (i, j) covers [(i - 1) s, i s) x [(j - 1) s, j s).
-                    let i = (bx / s).floor() as i64 + 1;
-                    let j = (by / s).floor() as i64 + 1;
-                    let on_squares = (0..10).contains(&i) && (0..7).contains(&j);
-                    let on_paper = (-1..11).contains(&i) && (-1..8).contains(&j);
-                    sum += if on_squares && (i + j) % 2 == 0 {
-                        0.1
-                    } else if on_paper {
-                        0.9
-                    } else {
-                        0.45
-                    };
-                }
-            }
-            values[y * w + x] = sum / (n * n) as f64 * light(x as f64, y as f64);
-        }
-    }
-    let values = gaussian_blur(&values, w, hgt, blur_px);
-    GrayImage::from_fn(w as u32, hgt as u32, |x, y| {
-        image::Luma([(values[y as usize * w + x as usize] * 255.0)
-            .round()
-            .clamp(0.0, 255.0) as u8])
-    })
-}
-
-fn gaussian_blur(values: &[f64], w: usize, h: usize, sigma: f64) -> Vec<f64> {
-    if sigma <= 0.0 {
-        return values.to_vec();
-    }
-    let radius = (3.0 * sigma).ceil() as i64;
-    let kernel: Vec<f64> = (-radius..=radius)
-        .map(|k| (-(k * k) as f64 / (2.0 * sigma * sigma)).exp())
-        .collect();
-    let total: f64 = kernel.iter().sum();
-    let pass = |input: &[f64], horizontal: bool| -> Vec<f64> {
-        let mut out = vec![0.0; w * h];
-        for y in 0..h as i64 {
-            for x in 0..w as i64 {
-                let mut acc = 0.0;
-                for (k, weight) in (-radius..=radius).zip(&kernel) {
-                    let (xx, yy) = if horizontal {
-                        ((x + k).clamp(0, w as i64 - 1), y)
-                    } else {
-                        (x, (y + k).clamp(0, h as i64 - 1))
-                    };
-                    acc += weight * input[yy as usize * w + xx as usize];
-                }
-                out[y as usize * w + x as usize] = acc / total;
-            }
-        }
-        out
+/// Renders the board with the simulator's chessboard renderer (`teachcam::sim::board`):
+/// 10x7 squares, the square between corners 0, 1, 9, 10 dark, a white margin of one square,
+/// on a mid-grey background, light falling by `light_falloff` across the sheet, blurred by a
+/// Gaussian of `blur_px`, noise-free. The camera's pose is `camera_from_board`.
+fn render(camera: &Camera, light_falloff: f64, blur_px: f64) -> GrayImage {
+    let background_dn = 0.45 * 255.0;
+    let look = BoardLook {
+        margin_mm: BOARD.square_mm,
+        white_dn: 0.9 * 255.0 - background_dn,
+        black_dn: 0.1 * 255.0 - background_dn,
+        light_falloff,
+        ..BoardLook::default()
     };
-    pass(&pass(values, true), false)
+    let config = RenderConfig {
+        blur_sigma_px: blur_px,
+        background_dn,
+        read_noise_dn: 0.0,
+        shot_noise_dn_per_dn: 0.0,
+        ..RenderConfig::default()
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    render_board(camera, &BOARD, &Pose::identity(), &look, &config, &mut rng).image
 }
 
 /// The board's pose: tilted about an in-plane axis, centred on the optical axis at 500 mm.
@@ -151,11 +98,11 @@ fn errors(camera: &Camera, found: &[teachcam::geometry::Pixel]) -> (f64, f64) {
     (mean, d.iter().copied().fold(0.0, f64::max))
 }
 
-/// Perspective, a board turned half a turn, light falling from 100 % to 35 % across the image,
+/// Perspective, a board turned half a turn, light falling from 100 % to 35 % across the sheet,
 /// mild blur: found, in OpenCV's order (corner 0 where the dark square is), near the truth.
 #[test]
 fn rendered_boards_give_true_corners_in_order() {
-    let light = |x: f64, y: f64| 1.0 - 0.65 * (x / 640.0) * (0.5 + 0.5 * y / 480.0);
+    let light = 0.65;
     for (tilt, spin, blur) in [
         (0.0, 0.0, 0.7),
         (35.0, 10.0, 0.7),
@@ -178,7 +125,7 @@ fn rendered_boards_give_true_corners_in_order() {
 #[test]
 fn partial_board_is_refused() {
     let cam = camera(board_pose(10.0, 0.0, Vector3::new(130.0, 0.0, 0.0)));
-    let image = render(&cam, |_, _| 1.0, 0.7);
+    let image = render(&cam, 0.0, 0.7);
     let result = find_chessboard_corners(&image, &BOARD, &CornerConfig::default());
     assert!(result.is_err(), "partial board accepted");
 }
@@ -188,7 +135,7 @@ fn partial_board_is_refused() {
 fn heavy_blur_is_refused_or_right() {
     for blur in [3.0, 6.0] {
         let cam = camera(board_pose(20.0, 5.0, Vector3::zeros()));
-        let image = render(&cam, |_, _| 1.0, blur);
+        let image = render(&cam, 0.0, blur);
         match find_chessboard_corners(&image, &BOARD, &CornerConfig::default()) {
             Ok(found) => {
                 let (mean, max) = errors(&cam, &found);

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use teachcam::sim::calibration::{calibration_scene, write_calibration};
 use teachcam::sim::{Scenario, build_scene, write_scene};
 
 use crate::progress::Progress;
@@ -17,10 +18,18 @@ use crate::progress::Progress;
 /// at 30 Hz), `static` (the brush at rest, 100 frames), `occluded` (markers hidden in some views,
 /// glints, a glint touching a marker), `four-cameras`.
 ///
+/// `calibration` and `four-cameras-calibration` write chessboard views for `teachcam calibrate
+/// rig` instead: a 9x6 board with 50 mm squares lying on the work object (view `world`, the
+/// world frame) and held in `--views` placements around the working volume, as
+/// `<camera>/<view>.png` (only views a camera sees whole), the true `rig.json`, `boards.json`
+/// (each view's world_from_board), `corners.csv` (true corners) and `calibration.json`
+/// (the world view, its offset from the simulator's world, the command to run).
+///
 /// Example: `teachcam simulate --scenario paper --out rec`
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Scenario name: paper, static, occluded or four-cameras.
+    /// Scenario name: paper, static, occluded, four-cameras, calibration or
+    /// four-cameras-calibration.
     #[arg(long, default_value = "paper")]
     pub scenario: String,
     /// Output folder (created; files in it are replaced).
@@ -32,6 +41,10 @@ pub struct Args {
     /// Write only the first N frames of the scenario.
     #[arg(long)]
     pub frames: Option<usize>,
+    /// Calibration scenarios: board placements held around the working volume, besides the
+    /// one on the work object.
+    #[arg(long, default_value_t = 30)]
+    pub views: usize,
 }
 
 /// Run the command.
@@ -44,6 +57,27 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             names.join(", ")
         )
     })?;
+    if scenario.is_calibration() {
+        if args.frames.is_some() {
+            anyhow::bail!(
+                "--frames applies to recordings; scenario '{}' has --views",
+                scenario.name()
+            );
+        }
+        let scene = calibration_scene(scenario.rig(), args.views, args.seed);
+        let progress = Progress::new("simulate", scene.placements.len() as u64);
+        write_calibration(&scene, &args.out, args.seed, &|| progress.tick())
+            .with_context(|| format!("writing the simulation to {}", args.out.display()))?;
+        progress.finish();
+        eprintln!(
+            "wrote {} board views x {} cameras of scenario '{}' to {}",
+            scene.placements.len(),
+            scene.rig.len(),
+            scenario.name(),
+            args.out.display()
+        );
+        return Ok(());
+    }
     let mut scene = build_scene(scenario, args.seed);
     if let Some(frames) = args.frames {
         if frames == 0 {

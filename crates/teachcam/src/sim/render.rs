@@ -88,15 +88,15 @@ const NOISE_TABLE_SIZE: usize = 1 << 16;
 
 /// An axis-aligned pixel rectangle, inclusive bounds, clipped to the image.
 #[derive(Debug, Clone, Copy)]
-struct PixelBox {
-    x0: i64,
-    y0: i64,
-    x1: i64,
-    y1: i64,
+pub(super) struct PixelBox {
+    pub(super) x0: i64,
+    pub(super) y0: i64,
+    pub(super) x1: i64,
+    pub(super) y1: i64,
 }
 
 impl PixelBox {
-    fn around(center: Pixel, half: f64, width: u32, height: u32) -> Option<Self> {
+    pub(super) fn around(center: Pixel, half: f64, width: u32, height: u32) -> Option<Self> {
         let b = Self {
             x0: ((center.x - half).floor() as i64).max(0),
             y0: ((center.y - half).floor() as i64).max(0),
@@ -106,7 +106,7 @@ impl PixelBox {
         (b.x0 <= b.x1 && b.y0 <= b.y1).then_some(b)
     }
 
-    fn grown(self, by: i64, width: u32, height: u32) -> Self {
+    pub(super) fn grown(self, by: i64, width: u32, height: u32) -> Self {
         Self {
             x0: (self.x0 - by).max(0),
             y0: (self.y0 - by).max(0),
@@ -296,7 +296,22 @@ pub fn render_view<R: Rng>(
         boxes.push(b.grown(blur_margin, width, height));
     }
 
-    let blurred = blur_regions(&coverage, width, height, &boxes, config.blur_sigma_px);
+    let image = form_image(&coverage, width, height, &boxes, config, rng);
+    (image, views)
+}
+
+/// The sensor's image of a radiance map: `coverage` (DN above background per pixel, zero
+/// outside every box) blurred by the point-spread function inside `boxes`, offset by the
+/// background, given read and shot noise, and quantised to 8 bits. Shared by every renderer.
+pub(super) fn form_image<R: Rng>(
+    coverage: &[f32],
+    width: u32,
+    height: u32,
+    boxes: &[PixelBox],
+    config: &RenderConfig,
+    rng: &mut R,
+) -> GrayImage {
+    let blurred = blur_regions(coverage, width, height, boxes, config.blur_sigma_px);
     // Noise: independent standard normal draws for every pixel, taken at random from a table of
     // draws made afresh for each view (a 2¹⁶-entry table sampled with replacement is
     // statistically indistinguishable from direct draws here and ten times faster).
@@ -317,7 +332,7 @@ pub fn render_view<R: Rng>(
             .round()
             .clamp(0.0, 255.0) as u8;
     }
-    (image, views)
+    image
 }
 
 /// Separable Gaussian blur of `source`, computed inside each box (pixels outside every box
