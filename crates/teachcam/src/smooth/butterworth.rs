@@ -142,7 +142,7 @@ impl Butterworth {
         3 * self.a.len().max(self.b.len())
     }
 
-    /// The state of [`Self::filter_with_state`] after a long run of ones: scipy's
+    /// The filter state (direct form II transposed) after a long run of ones: scipy's
     /// `lfilter_zi`. In direct form II transposed, with `y = H(1) = Σb/Σa`, the state is
     /// `z_{N-1} = b_N - a_N·y`, `z_i = b_{i+1} - a_{i+1}·y + z_{i+1}`.
     #[must_use]
