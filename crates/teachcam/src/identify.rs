@@ -72,6 +72,20 @@ struct ModelPair {
     distance_mm: f64,
 }
 
+/// The error for two marker pairs whose distances cannot be told apart.
+fn ambiguity(tool: String, p: &ModelPair, q: &ModelPair, config: &IdentifyConfig) -> IdentifyError {
+    IdentifyError::Ambiguous {
+        tool,
+        a: p.a.0,
+        b: p.b.0,
+        distance_ab_mm: p.distance_mm,
+        c: q.a.0,
+        d: q.b.0,
+        distance_cd_mm: q.distance_mm,
+        tolerance_mm: config.distance_tolerance_mm,
+    }
+}
+
 fn model_pairs(markers: &[Point3]) -> Vec<ModelPair> {
     let mut pairs = Vec::new();
     for i in 0..markers.len() {
@@ -96,16 +110,7 @@ pub fn check_identifiable(tool: &Tool, config: &IdentifyConfig) -> Result<(), Id
     for (i, p) in pairs.iter().enumerate() {
         for q in &pairs[i + 1..] {
             if (p.distance_mm - q.distance_mm).abs() < 2.0 * config.distance_tolerance_mm {
-                return Err(IdentifyError::Ambiguous {
-                    tool: tool.name.clone(),
-                    a: p.a.0,
-                    b: p.b.0,
-                    distance_ab_mm: p.distance_mm,
-                    c: q.a.0,
-                    d: q.b.0,
-                    distance_cd_mm: q.distance_mm,
-                    tolerance_mm: config.distance_tolerance_mm,
-                });
+                return Err(ambiguity(tool.name.clone(), p, q, config));
             }
         }
     }
@@ -264,16 +269,8 @@ pub fn check_tools_distinct(tools: &[&Tool], config: &IdentifyConfig) -> Result<
             for p in model_pairs(&first.markers_in_tool) {
                 for q in model_pairs(&second.markers_in_tool) {
                     if (p.distance_mm - q.distance_mm).abs() < 2.0 * config.distance_tolerance_mm {
-                        return Err(IdentifyError::Ambiguous {
-                            tool: format!("{}' and '{}", first.name, second.name),
-                            a: p.a.0,
-                            b: p.b.0,
-                            distance_ab_mm: p.distance_mm,
-                            c: q.a.0,
-                            d: q.b.0,
-                            distance_cd_mm: q.distance_mm,
-                            tolerance_mm: config.distance_tolerance_mm,
-                        });
+                        let tools = format!("{}' and '{}", first.name, second.name);
+                        return Err(ambiguity(tools, &p, &q, config));
                     }
                 }
             }

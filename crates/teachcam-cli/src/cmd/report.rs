@@ -49,6 +49,18 @@ pub struct Args {
 /// A labelled line of a panel: its legend text and its (x, y) values.
 type Line = (String, (Vec<f64>, Vec<f64>));
 
+/// The panel series of labelled lines.
+fn series(lines: &[Line]) -> Vec<Series<'_>> {
+    lines
+        .iter()
+        .map(|(label, (x, y))| Series {
+            label: label.clone(),
+            x,
+            y,
+        })
+        .collect()
+}
+
 /// A figure of the page: a caption and PNG bytes.
 struct Figure {
     title: String,
@@ -199,14 +211,7 @@ fn components(
             x_label: "time (s)".into(),
             y_label: format!("{name} ({unit})"),
             y_scale: YScale::Linear,
-            series: lines
-                .iter()
-                .map(|(label, (x, y))| Series {
-                    label: label.clone(),
-                    x,
-                    y,
-                })
-                .collect(),
+            series: series(lines),
         })
         .collect();
     Ok(Figure {
@@ -351,14 +356,7 @@ fn tip_errors(
         x_label: "time (s)".into(),
         y_label: "tip error (mm)".into(),
         y_scale: YScale::Linear,
-        series: lines
-            .iter()
-            .map(|(label, (x, y))| Series {
-                label: label.clone(),
-                x,
-                y,
-            })
-            .collect(),
+        series: series(&lines),
     };
     Ok(Figure {
         title: "Tip error over time".into(),
