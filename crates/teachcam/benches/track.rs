@@ -7,9 +7,10 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use teachcam::correspond::Views;
+use teachcam::detect::{DetectConfig, detect};
 use teachcam::geometry::Pixel;
 use teachcam::metrology::{first_order, monte_carlo};
-use teachcam::sim::{Scenario, build_scene, markers_in_world};
+use teachcam::sim::{Scenario, build_scene, markers_in_world, render_frame};
 use teachcam::track::{TrackConfig, Tracker};
 
 fn views_of(scenario: Scenario, frame: usize) -> (teachcam::sim::Scene, Views) {
@@ -47,6 +48,31 @@ fn track_frame(c: &mut Criterion) {
     }
 }
 
+fn images_to_pose(c: &mut Criterion) {
+    let scene = build_scene(Scenario::Paper, 1);
+    let rendered = render_frame(&scene, 30, 1);
+    let configs: Vec<DetectConfig> = scene
+        .rig
+        .cameras
+        .iter()
+        .map(|cam| DetectConfig::for_marker(cam, scene.tool.marker_diameter_mm, 300.0, 3000.0))
+        .collect();
+    let tracker = Tracker::new(&scene.rig, &scene.tool, TrackConfig::default());
+    let pose = |views: &[teachcam::sim::RenderedView]| {
+        let mut frame = Views::new();
+        for v in views {
+            let blobs = detect(&v.image, &configs[v.camera.0]).unwrap();
+            frame.insert(v.camera, blobs.iter().map(|b| b.center).collect());
+        }
+        tracker.track_frame(&frame)
+    };
+    assert!(pose(&rendered).outcome.is_ok());
+    c.bench_function(
+        "images to pose, 3 cameras 1280x1024, 4 markers (decoded images)",
+        |b| b.iter(|| pose(black_box(&rendered))),
+    );
+}
+
 fn uncertainty(c: &mut Criterion) {
     let scene = build_scene(Scenario::Paper, 1);
     let pose = scene.truth.samples[30].pose.unwrap().world_from_tool;
@@ -72,5 +98,5 @@ fn uncertainty(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, track_frame, uncertainty);
+criterion_group!(benches, track_frame, images_to_pose, uncertainty);
 criterion_main!(benches);
