@@ -19,6 +19,12 @@ use teachcam::io::rig::write_rig;
 use crate::Rejected;
 
 /// Calibrate cameras from photographs of a chessboard.
+///
+/// `intrinsics` calibrates one camera (Zhang's method, then Levenberg–Marquardt with OpenCV's
+/// 5-coefficient distortion); `rig` puts every camera of a rig in one world frame set by a board
+/// lying on the work object, then adjusts them all together.
+///
+/// Example: `teachcam calibrate intrinsics --pattern chessboard --inner 9x6 --square 25 left*.jpg -o camera.json`
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(subcommand)]
