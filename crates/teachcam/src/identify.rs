@@ -7,12 +7,12 @@
 //! occluded marker's place, or a stray). The paper's worked example (five markers, one
 //! occluded, the others shuffled) is a test of this module.
 //!
-//! Made robust here: the tolerance comes from the noise of triangulated points; a label needs
-//! a unique winner with at least two votes (one distance cannot tell `k` from `l`); two points
-//! claiming one marker keep the one with more votes; finally every labelled pair must have the
-//! model's distance, and points that disagree with most others are dropped one at a time
-//! (strays that matched a distance by chance); a point left unlabelled by a tied vote takes the
-//! one free marker whose distances it reproduces. A tool whose own distances could be mistaken
+//! Made robust here: the tolerance comes from the noise of triangulated points; instead of
+//! taking each point's most frequent index on its own, the labels are the largest set in which
+//! every labelled pair is at its markers' model distance, each point trying its voted markers
+//! most votes first (so a stray that matched one distance by chance, and tied a vote, cannot
+//! take a label); a point still unlabelled takes the one free marker whose distances it
+//! reproduces. A tool whose own distances could be mistaken
 //! for one another is refused before tracking starts ([`check_identifiable`]).
 
 use std::collections::BTreeMap;
@@ -164,64 +164,120 @@ pub struct Identification {
 #[must_use]
 pub fn identify(model: &[Point3], points: &[Point3], config: &IdentifyConfig) -> Identification {
     let tables = index_tables(model, points, config);
-    // Votes: the most frequent index of ind_i, needing a unique winner with two votes or more.
-    let mut claims: BTreeMap<MarkerId, (usize, usize)> = BTreeMap::new(); // marker -> (point, votes)
-    for (i, table) in tables.iter().enumerate() {
-        let mut votes = vec![0_usize; model.len()];
-        for (a, b) in table.iter().flatten() {
-            votes[a.0] += 1;
-            votes[b.0] += 1;
-        }
-        let best = votes.iter().copied().max().unwrap_or(0);
-        if best < 2 || votes.iter().filter(|v| **v == best).count() > 1 {
-            continue;
-        }
-        let Some(marker) = votes.iter().position(|v| *v == best).map(MarkerId) else {
-            continue;
-        };
-        match claims.get(&marker) {
-            Some(&(_, other_votes)) if other_votes >= best => {}
-            _ => {
-                claims.insert(marker, (i, best));
+    // Votes: how often each marker's index occurs in ind_i (the paper's count).
+    let votes: Vec<Vec<usize>> = tables
+        .iter()
+        .map(|table| {
+            let mut votes = vec![0_usize; model.len()];
+            for (a, b) in table.iter().flatten() {
+                votes[a.0] += 1;
+                votes[b.0] += 1;
             }
-        }
-    }
-    let mut labels: BTreeMap<MarkerId, usize> =
-        claims.into_iter().map(|(m, (p, _))| (m, p)).collect();
-    // Consistency: drop the label that disagrees with the most others until none disagrees.
-    loop {
-        let disagreements: Vec<(MarkerId, usize)> = labels
-            .iter()
-            .map(|(m, p)| {
-                let count = labels
-                    .iter()
-                    .filter(|(n, q)| {
-                        n != &m
-                            && ((points[*p] - points[**q]).norm()
-                                - (model[m.0] - model[n.0]).norm())
-                            .abs()
-                                > config.distance_tolerance_mm
-                    })
-                    .count();
-                (*m, count)
-            })
-            .collect();
-        let Some(&(worst, count)) = disagreements
-            .iter()
-            .max_by_key(|(m, c)| (*c, std::cmp::Reverse(*m)))
-        else {
-            break;
-        };
-        if count == 0 {
-            break;
-        }
-        labels.remove(&worst);
-    }
+            votes
+        })
+        .collect();
+    let mut labels = consistent_labels(model, points, &votes, config);
     complete(model, points, config, &mut labels);
     let unassigned = (0..points.len())
         .filter(|i| !labels.values().any(|p| p == i))
         .collect();
     Identification { labels, unassigned }
+}
+
+/// Search nodes [`consistent_labels`] may visit: far more than a tool of up to ten markers among
+/// a dozen points needs, and a bound on the time a crowded frame can take.
+const SEARCH_BUDGET: usize = 200_000;
+
+/// The paper's choice made robust: the largest set of labels in which every pair of labelled
+/// points is at its markers' model distance. Each point tries the markers it voted for, most
+/// votes first (the paper's "the first tries are the more probable"), and then no label;
+/// among equally large sets the one with more votes wins. A stray that matched one distance by
+/// chance can tie a vote, but cannot join a consistent set. Fewer than two labels carry no
+/// evidence, so they give none.
+fn consistent_labels(
+    model: &[Point3],
+    points: &[Point3],
+    votes: &[Vec<usize>],
+    config: &IdentifyConfig,
+) -> BTreeMap<MarkerId, usize> {
+    let best_vote = |i: usize| votes[i].iter().copied().max().unwrap_or(0);
+    let mut order: Vec<usize> = (0..points.len()).filter(|i| best_vote(*i) > 0).collect();
+    order.sort_by_key(|i| (std::cmp::Reverse(best_vote(*i)), *i));
+    let candidates: Vec<Vec<usize>> = votes
+        .iter()
+        .map(|v| {
+            let mut markers: Vec<usize> = (0..model.len()).filter(|m| v[*m] > 0).collect();
+            markers.sort_by_key(|m| (std::cmp::Reverse(v[*m]), *m));
+            markers
+        })
+        .collect();
+    struct Search<'a> {
+        model: &'a [Point3],
+        points: &'a [Point3],
+        votes: &'a [Vec<usize>],
+        candidates: &'a [Vec<usize>],
+        order: &'a [usize],
+        tolerance: f64,
+        best: Vec<(usize, usize)>,
+        best_votes: usize,
+        nodes: usize,
+    }
+    impl Search<'_> {
+        fn fits(&self, point: usize, marker: usize, current: &[(usize, usize)]) -> bool {
+            current.iter().all(|&(q, n)| {
+                n != marker
+                    && ((self.points[point] - self.points[q]).norm()
+                        - (self.model[marker] - self.model[n]).norm())
+                    .abs()
+                        <= self.tolerance
+            })
+        }
+
+        fn visit(&mut self, depth: usize, current: &mut Vec<(usize, usize)>, votes: usize) {
+            self.nodes += 1;
+            if self.nodes > SEARCH_BUDGET
+                || current.len() + (self.order.len() - depth) < self.best.len()
+            {
+                return;
+            }
+            let Some(&point) = self.order.get(depth) else {
+                if (current.len(), votes) > (self.best.len(), self.best_votes) {
+                    self.best = current.clone();
+                    self.best_votes = votes;
+                }
+                return;
+            };
+            for k in 0..self.candidates[point].len() {
+                let marker = self.candidates[point][k];
+                if self.fits(point, marker, current) {
+                    current.push((point, marker));
+                    self.visit(depth + 1, current, votes + self.votes[point][marker]);
+                    current.pop();
+                }
+            }
+            self.visit(depth + 1, current, votes);
+        }
+    }
+    let mut search = Search {
+        model,
+        points,
+        votes,
+        candidates: &candidates,
+        order: &order,
+        tolerance: config.distance_tolerance_mm,
+        best: Vec::new(),
+        best_votes: 0,
+        nodes: 0,
+    };
+    search.visit(0, &mut Vec::new(), 0);
+    if search.best.len() < 2 {
+        return BTreeMap::new();
+    }
+    search
+        .best
+        .iter()
+        .map(|&(point, marker)| (MarkerId(marker), point))
+        .collect()
 }
 
 /// Identifies several tools in one cloud of points: each tool's markers by
