@@ -9,11 +9,14 @@
 //!    the lattice by linear extrapolation, taking the nearest candidate within a fraction of
 //!    the step. A board is found when a fully populated `cols x rows` window exists whose
 //!    squares alternate dark/bright (a photograph of a real board, not a lattice of clutter).
+//!    A lattice grown on a board axis and a diagonal (the seed's nearest saddles on a
+//!    foreshortened board) is renumbered by a unimodular shear before the window is sought.
 //! 3. **Order** as `cv2.findChessboardCorners` returns it (checked one to one on OpenCV's
 //!    sample images): rows of `cols` corners; walking a row then stepping to the next row turns
 //!    clockwise on screen (y down); the square between corners 0, 1, `cols`, `cols + 1` is dark.
 //! 4. **Sub-pixel**: OpenCV's `cornerSubPix` (Förstner): the corner `q` minimises
-//!    `Σ w(p) (∇I(p) · (p - q))²` over a window, iterated with bilinear resampling.
+//!    `Σ w(p) (∇I(p) · (p - q))²` over a window, iterated with bilinear resampling. A board
+//!    whose squares are so small that two refined corners slide together is refused.
 //!
 //! A partial, blurred or absent board is refused with [`ChessboardError`], never guessed.
 
