@@ -16,6 +16,12 @@ use teachcam::calib::{BoardView, Chessboard};
 use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
 use teachcam::geometry::{CameraId, Pixel, Point3, Pose};
 
+/// Images where OpenCV's `cornerSubPix` (23x23 window over squares of about 10 px) slides
+/// neighbouring corners onto one another: its stored corners have 6 pairs of lattice
+/// neighbours 10 px apart closer than 0.04 px. Our finder refuses such a board rather than
+/// return two corners at one point.
+const COLLAPSED_IN_OPENCV: [&str; 1] = ["caliscope-4cam-chessboard-9x6/cam_3_frame_1070.jpg"];
+
 /// `../shared/data/calib`, or `None` (test skipped) when absent outside CI.
 fn calib_data() -> Option<PathBuf> {
     teachcam_testdata::shared_data("calib")
@@ -69,6 +75,14 @@ fn corners_match_opencv_on_real_photographs() {
     for key in &keys {
         let image = load_gray(&data.join(key));
         let ours = find_chessboard_corners(&image, &BOARD, &config);
+        if COLLAPSED_IN_OPENCV.contains(&key.as_str()) {
+            if ours.is_ok() {
+                failures.push(format!(
+                    "{key}: corners collapse there, yet a board was found"
+                ));
+            }
+            continue;
+        }
         match (reference_corners(&reference, key), ours) {
             (None, Err(_)) => {}
             (None, Ok(_)) => failures.push(format!("{key}: OpenCV finds no board, we found one")),

@@ -148,11 +148,48 @@ fn rig_from_rendered_photographs_matches_truth() {
         for (name, world_from_board) in &placements {
             let image = render(camera, world_from_board);
             match find_chessboard_corners(&image, &BOARD, &config) {
-                Ok(corners) => observations.push(RigObservation {
-                    camera: CameraId(c),
-                    view: name.clone(),
-                    corners,
-                }),
+                Ok(corners) => {
+                    // Every accepted board on the right corners (issue 8: refusing fewer
+                    // oblique views must not let a wrong board through).
+                    let truth: Vec<Pixel> = BOARD
+                        .corners_in_board()
+                        .iter()
+                        .map(|point| {
+                            camera
+                                .project(&world_from_board.transform_point(point))
+                                .unwrap_or_else(|| panic!("corner behind {}", camera.name))
+                        })
+                        .collect();
+                    let worst_px = truth
+                        .iter()
+                        .zip(&corners)
+                        .map(|(t, ours)| t.distance(ours))
+                        .fold(0.0, f64::max);
+                    let shortest_step_px = truth
+                        .windows(2)
+                        .map(|pair| pair[0].distance(&pair[1]))
+                        .chain(
+                            truth
+                                .iter()
+                                .zip(&truth[BOARD.inner_cols..])
+                                .map(|(a, b)| a.distance(b)),
+                        )
+                        .fold(f64::INFINITY, f64::min);
+                    eprintln!(
+                        "{} {name}: worst corner {worst_px:.3} px, shortest step {shortest_step_px:.1} px",
+                        camera.name
+                    );
+                    assert!(
+                        worst_px < 0.25 * shortest_step_px,
+                        "{} {name}: corner {worst_px} px off",
+                        camera.name
+                    );
+                    observations.push(RigObservation {
+                        camera: CameraId(c),
+                        view: name.clone(),
+                        corners,
+                    });
+                }
                 Err(e) => eprintln!("{} {name}: {e}", camera.name),
             }
         }

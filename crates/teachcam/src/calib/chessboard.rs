@@ -9,11 +9,14 @@
 //!    the lattice by linear extrapolation, taking the nearest candidate within a fraction of
 //!    the step. A board is found when a fully populated `cols x rows` window exists whose
 //!    squares alternate dark/bright (a photograph of a real board, not a lattice of clutter).
+//!    A lattice grown on a board axis and a diagonal (the seed's nearest saddles on a
+//!    foreshortened board) is renumbered by a unimodular shear before the window is sought.
 //! 3. **Order** as `cv2.findChessboardCorners` returns it (checked one to one on OpenCV's
 //!    sample images): rows of `cols` corners; walking a row then stepping to the next row turns
 //!    clockwise on screen (y down); the square between corners 0, 1, `cols`, `cols + 1` is dark.
 //! 4. **Sub-pixel**: OpenCV's `cornerSubPix` (Förstner): the corner `q` minimises
-//!    `Σ w(p) (∇I(p) · (p - q))²` over a window, iterated with bilinear resampling.
+//!    `Σ w(p) (∇I(p) · (p - q))²` over a window, iterated with bilinear resampling. A board
+//!    whose squares are so small that two refined corners slide together is refused.
 //!
 //! A partial, blurred or absent board is refused with [`ChessboardError`], never guessed.
 
@@ -263,12 +266,26 @@ pub fn find_chessboard_corners(
             if lattice.len() + max_missing < cols * rows {
                 continue;
             }
-            let Some((grid, inferred)) =
-                board_window(&lattice, &candidates, &smooth, cols, rows, max_missing)
-            else {
+            // The seed's axes may be a board axis and a diagonal (a foreshortened board's
+            // diagonal can be shorter than its long step): the lattice is then whole but
+            // numbered on sheared axes. Renumbered on the board's axes, its cells are squares
+            // again, which `board_window` checks by their alternating brightness.
+            let Some((grid, inferred)) = SHEARS.iter().find_map(|&shear| {
+                board_window(
+                    &sheared(&lattice, shear),
+                    &candidates,
+                    &smooth,
+                    cols,
+                    rows,
+                    max_missing,
+                )
+            }) else {
                 continue;
             };
             let refined = refine_grid(&raw, &grid, cols, config);
+            if !stays_on_its_corner(&grid, &refined, cols, &inferred) {
+                continue;
+            }
             if inferred
                 .iter()
                 .all(|&k| confirms_inferred(&smooth, &grid, &refined, cols, k))
@@ -524,6 +541,30 @@ fn grow_lattice(
     Some(lattice)
 }
 
+/// Renumberings of a lattice tried in turn, as `(along i, along j)`: `(k, 0)` maps node
+/// `(i, j)` to `(i + k j, j)`, `(0, k)` to `(i, j + k i)`. A seed axis on a diagonal makes the
+/// shear ±1; ±2 covers a step to the next-but-one diagonal. The identity comes first.
+const SHEARS: [(i32, i32); 9] = [
+    (0, 0),
+    (1, 0),
+    (-1, 0),
+    (0, 1),
+    (0, -1),
+    (2, 0),
+    (-2, 0),
+    (0, 2),
+    (0, -2),
+];
+
+/// `lattice` renumbered by one of [`SHEARS`]: a unimodular change of axes, so every node keeps
+/// its neighbours and only the axes the window is read along change.
+fn sheared(lattice: &Lattice, (along_i, along_j): (i32, i32)) -> Lattice {
+    lattice
+        .iter()
+        .map(|(&(i, j), &c)| ((i + along_i * j, j + along_j * i), c))
+        .collect()
+}
+
 /// The board inside a grown lattice: a `cols x rows` window (either way round) with at most
 /// `max_missing` corners absent (predicted from their neighbours), whose squares alternate in
 /// brightness, ordered as OpenCV orders it; with the indices of the predicted corners.
@@ -636,6 +677,24 @@ fn fill_missing(sparse: &[Vec<Option<Pixel>>]) -> Option<(Vec<Vec<Pixel>>, Vec<P
         grid.push(row);
     }
     Some((grid, predicted))
+}
+
+/// True when sub-pixel refinement kept every pair of lattice neighbours at least half their
+/// distance apart. Where squares are only a few pixels wide along a foreshortened axis, the
+/// sub-pixel window reaches the neighbouring corner and two corners can slide onto one.
+/// Pairs with an `inferred` corner are skipped: its predicted position is only a guess, and
+/// [`confirms_inferred`] checks it.
+fn stays_on_its_corner(grid: &[Pixel], refined: &[Pixel], cols: usize, inferred: &[usize]) -> bool {
+    let apart = |a: usize, b: usize| {
+        inferred.contains(&a)
+            || inferred.contains(&b)
+            || refined[a].is_finite()
+                && refined[b].is_finite()
+                && refined[a].distance(&refined[b]) >= 0.5 * grid[a].distance(&grid[b])
+    };
+    (0..grid.len()).all(|k| {
+        (k % cols + 1 == cols || apart(k, k + 1)) && (k + cols >= grid.len() || apart(k, k + cols))
+    })
 }
 
 /// An inferred corner stands when refinement moved it less than a quarter of a square from
