@@ -287,6 +287,37 @@ pub fn measure<P: Intensity>(
         }
         _ => ((own_x, own_y, own_std), own.w),
     };
+    // A centroid outside the blob's own box means the weights were not the blob's (a window
+    // on noise, a blob no brighter than what surrounds it): fall back to the blob's own pixels,
+    // then to its enclosing circle, rather than report a centre away from the blob.
+    let bounds = region.bounds;
+    let inside = |x: f64, y: f64| {
+        let (px, py) = (x + origin_x, y + origin_y);
+        px >= f64::from(bounds.x_min) - 0.5
+            && px <= f64::from(bounds.x_max) + 0.5
+            && py >= f64::from(bounds.y_min) - 0.5
+            && py <= f64::from(bounds.y_max) + 0.5
+    };
+    let own_inside = inside(own_x, own_y);
+    let (refined, flux) = if inside(refined.0, refined.1) {
+        (refined, flux)
+    } else if own_inside {
+        ((own_x, own_y, own_std), own.w)
+    } else {
+        (
+            (
+                circle.center.x - origin_x,
+                circle.center.y - origin_y,
+                own_std,
+            ),
+            own.w,
+        )
+    };
+    let (own_x, own_y) = if own_inside {
+        (own_x, own_y)
+    } else {
+        (circle.center.x - origin_x, circle.center.y - origin_y)
+    };
     let radius_px = if plateau > b {
         (flux / (std::f64::consts::PI * (plateau - b))).sqrt()
     } else {
