@@ -68,6 +68,17 @@ impl FileError {
     }
 }
 
+/// Creates a folder and its parents (nothing to do when it exists).
+///
+/// # Errors
+/// [`FileError::Write`] naming the folder.
+pub fn create_folder(path: &Path) -> Result<(), FileError> {
+    std::fs::create_dir_all(path).map_err(|source| FileError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
 /// Reads a whole file as text.
 ///
 /// # Errors

@@ -442,16 +442,8 @@ pub fn write_scene(
     seed: u64,
     on_frame: &(dyn Fn() + Sync),
 ) -> Result<(), FileError> {
-    std::fs::create_dir_all(out).map_err(|source| FileError::Write {
-        path: out.to_path_buf(),
-        source,
-    })?;
     for camera in &scene.rig.cameras {
-        let folder = out.join(&camera.name);
-        std::fs::create_dir_all(&folder).map_err(|source| FileError::Write {
-            path: folder.clone(),
-            source,
-        })?;
+        crate::io::create_folder(&out.join(&camera.name))?;
     }
     let rows: Vec<String> = (0..scene.truth.len())
         .into_par_iter()

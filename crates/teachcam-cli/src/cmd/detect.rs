@@ -179,8 +179,8 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
 }
 
 /// Detects the blobs of every frame of every camera, frames in parallel, in camera then frame
-/// order; `configs[i]` is the configuration of `recording.cameras[i]`. `on_frame` is called
-/// after each frame.
+/// order; `configs[i]` is the configuration of `recording.cameras[i]`. Shows a progress bar on a
+/// terminal.
 ///
 /// # Errors
 /// Rejected data naming the camera, frame and file of the first frame that cannot be read or
@@ -188,7 +188,6 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
 pub fn detect_recording(
     recording: &Recording,
     configs: &[DetectConfig],
-    on_frame: &(dyn Fn() + Sync),
 ) -> anyhow::Result<Vec<FrameBlobs>> {
     anyhow::ensure!(
         configs.len() == recording.cameras.len(),
@@ -202,7 +201,9 @@ pub fn detect_recording(
         .enumerate()
         .flat_map(|(c, cam)| (0..cam.frames.len()).map(move |f| (c, f)))
         .collect();
-    jobs.par_iter()
+    let progress = Progress::new("detect", jobs.len() as u64);
+    let frames = jobs
+        .par_iter()
         .map(|&(c, f)| {
             let camera = &recording.cameras[c];
             let path = &camera.frames[f];
@@ -215,14 +216,16 @@ pub fn detect_recording(
             }
             .with_context(|| format!("camera {}, frame {f} ({})", camera.name, path.display()))
             .rejected()?;
-            on_frame();
+            progress.tick();
             Ok(FrameBlobs {
                 camera: camera.name.clone(),
                 frame: f,
                 blobs,
             })
         })
-        .collect()
+        .collect();
+    progress.finish();
+    frames
 }
 
 /// The CSV text of the detections.
@@ -263,10 +266,7 @@ fn csv_field(s: &str) -> String {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let recording = open_recording(&args.recording, None).rejected()?;
     let configs = configs(&args.options, &recording)?;
-    let total: usize = recording.cameras.iter().map(|c| c.frames.len()).sum();
-    let progress = Progress::new("detect", total as u64);
-    let frames = detect_recording(&recording, &configs, &|| progress.tick())?;
-    progress.finish();
+    let frames = detect_recording(&recording, &configs)?;
     write_atomically(&args.output, csv_text(&frames).as_bytes())?;
     let blobs: usize = frames.iter().map(|f| f.blobs.len()).sum();
     eprintln!(

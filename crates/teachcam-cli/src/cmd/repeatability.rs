@@ -9,7 +9,6 @@ use teachcam::io::write_atomically;
 
 use crate::Rejected;
 use crate::cmd::detect::{DetectOptions, FrameBlobs, configs, detect_recording};
-use crate::progress::Progress;
 
 /// Repeatability of blob centres of static markers (the paper's Fig. 10).
 ///
@@ -55,10 +54,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let recording = open_recording(&args.recording, None).rejected()?;
     let configs = configs(&args.options, &recording)?;
-    let total: usize = recording.cameras.iter().map(|c| c.frames.len()).sum();
-    let progress = Progress::new("detect", total as u64);
-    let frames = detect_recording(&recording, &configs, &|| progress.tick())?;
-    progress.finish();
+    let frames = detect_recording(&recording, &configs)?;
     let study = RepeatabilityConfig {
         match_radius_px: args.match_radius,
         min_frames: args.min_frames,

@@ -16,7 +16,6 @@ use teachcam::trajectory::Trajectory;
 
 use crate::Rejected;
 use crate::cmd::detect::detect_recording;
-use crate::progress::Progress;
 
 /// Track the tool through a recording: its pose in every frame.
 ///
@@ -132,10 +131,7 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
             cfg
         })
         .collect();
-    let total = recording.frame_count() * recording.cameras.len();
-    let progress = Progress::new("detect", total as u64);
-    let detections = detect_recording(&recording, &configs, &|| progress.tick())?;
-    progress.finish();
+    let detections = detect_recording(&recording, &configs)?;
 
     let frame_count = recording.frame_count();
     let mut views: Vec<Views> = vec![Views::new(); frame_count];

@@ -265,11 +265,7 @@ pub fn write_calibration(
     on_view: &(dyn Fn() + Sync),
 ) -> Result<(), FileError> {
     for camera in &scene.rig.cameras {
-        let folder = out.join(&camera.name);
-        std::fs::create_dir_all(&folder).map_err(|source| FileError::Write {
-            path: folder.clone(),
-            source,
-        })?;
+        crate::io::create_folder(&out.join(&camera.name))?;
     }
     let written: Vec<(Vec<String>, String)> = scene
         .placements
