@@ -154,11 +154,14 @@ const SMALL_RING: [(i32, i32); 16] = [
     (3, -1),
 ];
 
-/// A gray image as `f32`, row-major.
+/// A gray image, row-major, as integers in units of `gray_per_unit` gray levels: a photograph
+/// (1) or its [1 2 1] smoothing (1/16). A power-of-two unit keeps every sample exact in `f32`,
+/// so the ChESS sums can run in 16-bit integers and still equal the `f32` sums bit for bit.
 struct Plane {
     width: usize,
     height: usize,
-    data: Vec<f32>,
+    data: Vec<u16>,
+    gray_per_unit: f32,
 }
 
 impl Plane {
@@ -166,39 +169,43 @@ impl Plane {
         Self {
             width: image.width() as usize,
             height: image.height() as usize,
-            data: image.as_raw().iter().map(|&v| f32::from(v)).collect(),
+            data: image.as_raw().iter().map(|&v| u16::from(v)).collect(),
+            gray_per_unit: 1.0,
         }
     }
 
     fn at(&self, x: usize, y: usize) -> f32 {
-        self.data[y * self.width + x]
+        f32::from(self.data[y * self.width + x]) * self.gray_per_unit
     }
 
-    /// Separable [1 2 1]/4 smoothing, edges replicated.
+    /// Separable [1 2 1]/4 smoothing, edges replicated, of a plane of gray levels (0..=255, as
+    /// [`Plane::from_gray`] makes): the sums `Σ w_i w_j I` stay below 16 · 256, and the result
+    /// is kept as those sums in sixteenths of a gray level (what `f32` would hold exactly).
     fn smoothed(&self) -> Self {
         let (w, h) = (self.width, self.height);
-        let mut tmp = vec![0.0; w * h];
-        for y in 0..h {
-            let row = &self.data[y * w..(y + 1) * w];
-            for x in 0..w {
-                let l = row[x.saturating_sub(1)];
-                let r = row[(x + 1).min(w - 1)];
-                tmp[y * w + x] = 0.25 * (l + 2.0 * row[x] + r);
+        let mut across = vec![0u16; w * h];
+        for (row, out) in self.data.chunks_exact(w).zip(across.chunks_exact_mut(w)) {
+            out[0] = 3 * row[0] + row[1];
+            out[w - 1] = row[w - 2] + 3 * row[w - 1];
+            let inner = out[1..w - 1].iter_mut().zip(&row[..w - 2]);
+            for ((o, &l), (&c, &r)) in inner.zip(row[1..w - 1].iter().zip(&row[2..])) {
+                *o = l + 2 * c + r;
             }
         }
-        let mut data = vec![0.0; w * h];
-        for y in 0..h {
-            let up = y.saturating_sub(1);
-            let down = (y + 1).min(h - 1);
-            for x in 0..w {
-                data[y * w + x] =
-                    0.25 * (tmp[up * w + x] + 2.0 * tmp[y * w + x] + tmp[down * w + x]);
+        let mut data = vec![0u16; w * h];
+        for (y, out) in data.chunks_exact_mut(w).enumerate() {
+            let up = &across[y.saturating_sub(1) * w..][..w];
+            let here = &across[y * w..][..w];
+            let down = &across[(y + 1).min(h - 1) * w..][..w];
+            for ((o, &u), (&c, &d)) in out.iter_mut().zip(up).zip(here.iter().zip(down)) {
+                *o = u + 2 * c + d;
             }
         }
         Self {
             width: w,
             height: h,
             data,
+            gray_per_unit: self.gray_per_unit / 16.0,
         }
     }
 
@@ -311,7 +318,7 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     // Row by row, each term over the whole row at once (loops the compiler vectorises): ring
     // sample k of pixel x is rows[k][x - r].
     let n = w - 2 * r;
-    let rows_of = |ring: &[(i32, i32); 16], y: usize| -> [&[f32]; 16] {
+    let rows_of = |ring: &[(i32, i32); 16], y: usize| -> [&[u16]; 16] {
         std::array::from_fn(|k| {
             let (dx, dy) = ring[k];
             let start =
@@ -319,27 +326,22 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
             &plane.data[start..start + n]
         })
     };
-    let mut local_mean = vec![0.0f32; n];
+    let mut scratch = ChessRow::new(n, plane.gray_per_unit);
     let mut best = vec![0.0f32; n];
     let mut value = vec![0.0f32; n];
     for y in r..h - r {
         let above = &plane.data[(y - 1) * w + r..(y - 1) * w + r + n];
         let here = &plane.data[y * w + r - 1..y * w + r + n + 1];
         let below = &plane.data[(y + 1) * w + r..(y + 1) * w + r + n];
-        for x in 0..n {
-            local_mean[x] = (here[x + 1] + here[x] + here[x + 2] + above[x] + below[x]) / 5.0;
+        // Five samples below 16 · 256 each: the sum fits in 16 bits.
+        for (x, sum) in scratch.cross_sum.iter_mut().enumerate() {
+            *sum = here[x + 1] + here[x] + here[x + 2] + above[x] + below[x];
         }
         // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
-        for (ring, first) in [(&RING, true), (&SMALL_RING, false)] {
-            let a = rows_of(ring, y);
-            chess_row(&a, &local_mean, &mut value);
-            if first {
-                best.copy_from_slice(&value);
-            } else {
-                for (b, v) in best.iter_mut().zip(&value) {
-                    *b = b.max(*v);
-                }
-            }
+        scratch.responses(&rows_of(&RING, y), &mut best);
+        scratch.responses(&rows_of(&SMALL_RING, y), &mut value);
+        for (b, v) in best.iter_mut().zip(&value) {
+            *b = b.max(*v);
         }
         let out = &mut response[y * w + r..y * w + r + n];
         for (o, v) in out.iter_mut().zip(&best) {
@@ -396,33 +398,63 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     candidates
 }
 
-/// ChESS responses of one row: `out[x]` for the ring whose sample `k` is `ring[k][x]`, around
-/// pixels whose 5-pixel cross averages `local_mean[x]`:
-/// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}| - 16 |mean(a) - local|`.
-fn chess_row(ring: &[&[f32]; 16], local_mean: &[f32], out: &mut [f32]) {
-    let len = out.len();
-    let mut ring_sum = vec![0.0f32; len];
-    out.fill(0.0);
-    for k in 0..4 {
-        let (a, b, c, d) = (
-            &ring[k][..len],
-            &ring[k + 8][..len],
-            &ring[k + 4][..len],
-            &ring[k + 12][..len],
-        );
-        for x in 0..len {
-            out[x] += (a[x] + b[x] - c[x] - d[x]).abs();
+/// Buffers for the ChESS responses of one row, in the plane's integer units.
+struct ChessRow {
+    /// Per pixel, `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}|`:
+    /// at most 4 · 2 · 4080 in magnitude for samples below 16 · 256, so it fits `i16`.
+    contrast: Vec<i16>,
+    /// Per pixel, `Σ a_n` over the ring: at most 16 · 4080, so it fits `u16`.
+    ring_sum: Vec<u16>,
+    /// Per pixel, the sum of its 5-pixel cross (centre and 4-neighbours).
+    cross_sum: Vec<u16>,
+    gray_per_unit: f32,
+}
+
+impl ChessRow {
+    fn new(len: usize, gray_per_unit: f32) -> Self {
+        Self {
+            contrast: vec![0; len],
+            ring_sum: vec![0; len],
+            cross_sum: vec![0; len],
+            gray_per_unit,
         }
     }
-    for k in 0..8 {
-        let (a, b) = (&ring[k][..len], &ring[k + 8][..len]);
-        for x in 0..len {
-            out[x] -= (a[x] - b[x]).abs();
-            ring_sum[x] += a[x] + b[x];
+
+    /// ChESS responses of one row in gray levels: `out[x]` for the ring whose sample `k` is
+    /// `ring[k][x]`, around pixels whose 5-pixel cross sums `cross_sum[x]`:
+    /// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}| - 16 |mean(a) - cross mean|`.
+    /// The sums are exact in integers; the last term is then formed with the same `f32`
+    /// operations on the same (exact) values as an all-`f32` evaluation, so it equals it.
+    fn responses(&mut self, ring: &[&[u16]; 16], out: &mut [f32]) {
+        let len = out.len();
+        let (contrast, ring_sum) = (&mut self.contrast[..len], &mut self.ring_sum[..len]);
+        contrast.fill(0);
+        ring_sum.fill(0);
+        for k in 0..4 {
+            let (a, b, c, d) = (
+                &ring[k][..len],
+                &ring[k + 8][..len],
+                &ring[k + 4][..len],
+                &ring[k + 12][..len],
+            );
+            for x in 0..len {
+                contrast[x] += (a[x] as i16 + b[x] as i16 - c[x] as i16 - d[x] as i16).abs();
+            }
         }
-    }
-    for x in 0..len {
-        out[x] -= 16.0 * (ring_sum[x] / 16.0 - local_mean[x]).abs();
+        for k in 0..8 {
+            let (a, b) = (&ring[k][..len], &ring[k + 8][..len]);
+            for x in 0..len {
+                contrast[x] -= (a[x] as i16 - b[x] as i16).abs();
+                ring_sum[x] += a[x] + b[x];
+            }
+        }
+        let unit = self.gray_per_unit;
+        let ring_mean_per_unit = unit / 16.0;
+        for (x, o) in out.iter_mut().enumerate() {
+            let cross_mean = f32::from(self.cross_sum[x]) * unit / 5.0;
+            let ring_mean = f32::from(ring_sum[x]) * ring_mean_per_unit;
+            *o = f32::from(contrast[x]) * unit - 16.0 * (ring_mean - cross_mean).abs();
+        }
     }
 }
 

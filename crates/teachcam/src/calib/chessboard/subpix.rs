@@ -51,14 +51,17 @@ fn corner_subpix(
     let half = half_window_px as i32;
     let side = (2 * half + 1) as usize;
     let buffer_side = side + 2;
-    let mut mask = vec![0.0f64; side * side];
-    for i in 0..side {
-        let y = f64::from(i as i32 - half) / f64::from(half.max(1));
-        for j in 0..side {
-            let x = f64::from(j as i32 - half) / f64::from(half.max(1));
-            mask[i * side + j] = (-y * y).exp() * (-x * x).exp();
-        }
-    }
+    // OpenCV's mask is the product of one Gaussian per axis: `side` exponentials, not `side²`.
+    let gauss: Vec<f64> = (0..side)
+        .map(|i| {
+            let t = f64::from(i as i32 - half) / f64::from(half.max(1));
+            (-t * t).exp()
+        })
+        .collect();
+    let mask: Vec<f64> = gauss
+        .iter()
+        .flat_map(|gy| gauss.iter().map(move |gx| gy * gx))
+        .collect();
     let eps2 = config.subpix_epsilon_px * config.subpix_epsilon_px;
     let mut buffer = vec![0.0f64; buffer_side * buffer_side];
     let mut q = start;
@@ -81,14 +84,16 @@ fn corner_subpix(
                 ax * ay,
             );
             let (bx, by) = (bx as usize, by as usize);
+            // A power of two: the samples are the same numbers `Plane::at` gives.
+            let unit = f64::from(plane.gray_per_unit);
             for i in 0..buffer_side {
                 let top = &plane.data[(by + i) * plane.width + bx..];
                 let bottom = &plane.data[(by + i + 1) * plane.width + bx..];
                 for j in 0..buffer_side {
-                    buffer[i * buffer_side + j] = w00 * f64::from(top[j])
-                        + w01 * f64::from(top[j + 1])
-                        + w10 * f64::from(bottom[j])
-                        + w11 * f64::from(bottom[j + 1]);
+                    buffer[i * buffer_side + j] = w00 * (unit * f64::from(top[j]))
+                        + w01 * (unit * f64::from(top[j + 1]))
+                        + w10 * (unit * f64::from(bottom[j]))
+                        + w11 * (unit * f64::from(bottom[j + 1]));
                 }
             }
         } else {
