@@ -311,12 +311,108 @@ pub fn find_chessboard_corners(
 
 /// ChESS responses, non-maximum suppressed over a 7x7 neighbourhood, strongest first.
 fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
+    let (response, max_response) = chess_response(plane);
+    if max_response <= 0.0 {
+        return Vec::new();
+    }
+    let threshold = max_response * config.min_relative_response as f32;
+    let (w, h) = (plane.width, plane.height);
+    let r = RING_RADIUS as usize;
+    let mut maxima = local_maxima(&response, w, h, r, threshold);
+    // Raster order before the stable sort below, so equal responses keep a fixed order.
+    maxima.sort_unstable();
+    let mut candidates: Vec<Candidate> = maxima
+        .into_iter()
+        .map(|(y, x)| {
+            // Centre of mass of the response around the maximum: a better start for the
+            // lattice walk than the integer pixel.
+            let (mut sx, mut sy, mut sw) = (0.0, 0.0, 0.0);
+            for yy in y - 1..=y + 1 {
+                for xx in x - 1..=x + 1 {
+                    let v = f64::from(response[yy * w + xx]);
+                    sx += v * xx as f64;
+                    sy += v * yy as f64;
+                    sw += v;
+                }
+            }
+            Candidate {
+                x: sx / sw,
+                y: sy / sw,
+                response: response[y * w + x],
+            }
+        })
+        .collect();
+    candidates.sort_by(|a, b| b.response.total_cmp(&a.response));
+    candidates
+}
+
+/// Pixels `(y, x)` of `response` (`w x h`, zero within `r` of the border) above `threshold`
+/// that beat every other pixel of their 7x7 neighbourhood; ties go to the first in raster
+/// order, so a plateau yields one. Only each 4x4 block's own winner is checked against its
+/// neighbourhood (Neubeck & Van Gool 2006): a pixel's block lies inside its 7x7 window, so a
+/// pixel that beats its window beats its block, and a block's loser cannot be a maximum.
+fn local_maxima(
+    response: &[f32],
+    w: usize,
+    h: usize,
+    r: usize,
+    threshold: f32,
+) -> Vec<(usize, usize)> {
+    const NMS: usize = 3;
+    const BLOCK: usize = NMS + 1;
+    let beats = |value: f32, y: usize, x: usize, yy: usize, xx: usize| {
+        let other = response[yy * w + xx];
+        value > other || (value == other && (y, x) <= (yy, xx))
+    };
+    let mut maxima = Vec::new();
+    let (x_end, y_end) = (w - r, h - r);
+    let mut column_max = vec![0.0f32; w];
+    for y0 in (r..y_end).step_by(BLOCK) {
+        let block_rows = y0..(y0 + BLOCK).min(y_end);
+        column_max.copy_from_slice(&response[y0 * w..(y0 + 1) * w]);
+        for yy in block_rows.clone().skip(1) {
+            for (m, v) in column_max.iter_mut().zip(&response[yy * w..(yy + 1) * w]) {
+                *m = m.max(*v);
+            }
+        }
+        for x0 in (r..x_end).step_by(BLOCK) {
+            let block_cols = x0..(x0 + BLOCK).min(x_end);
+            let block_max = column_max[block_cols.clone()]
+                .iter()
+                .fold(0.0f32, |m, &v| m.max(v));
+            if block_max <= threshold {
+                continue;
+            }
+            // The block's winner: its first pixel in raster order holding the block's maximum.
+            let Some((y, x)) = block_rows
+                .clone()
+                .flat_map(|yy| block_cols.clone().map(move |xx| (yy, xx)))
+                .find(|&(yy, xx)| response[yy * w + xx] == block_max)
+            else {
+                continue;
+            };
+            let value = block_max;
+            let rows = y.saturating_sub(NMS)..=(y + NMS).min(h - 1);
+            let is_max = rows.into_iter().all(|yy| {
+                (x.saturating_sub(NMS)..=(x + NMS).min(w - 1)).all(|xx| beats(value, y, x, yy, xx))
+            });
+            if is_max {
+                maxima.push((y, x));
+            }
+        }
+    }
+    maxima
+}
+
+/// The ChESS response at every pixel, the stronger of two ring radii (5 px for large
+/// squares, 3 px for small ones), 0 where not positive and within the ring of the border;
+/// with the largest response.
+fn chess_response(plane: &Plane) -> (Vec<f32>, f32) {
     let (w, h) = (plane.width, plane.height);
     let r = RING_RADIUS as usize;
     let mut response = vec![0.0f32; w * h];
-    let mut max_response = 0.0f32;
     // Row by row, each term over the whole row at once (loops the compiler vectorises): ring
-    // sample k of pixel x is rows[k][x - r].
+    // sample k of pixel x + r is rows[k][x].
     let n = w - 2 * r;
     let rows_of = |ring: &[(i32, i32); 16], y: usize| -> [&[u16]; 16] {
         std::array::from_fn(|k| {
@@ -327,8 +423,10 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
         })
     };
     let mut scratch = ChessRow::new(n, plane.gray_per_unit);
-    let mut best = vec![0.0f32; n];
-    let mut value = vec![0.0f32; n];
+    let mut small = vec![0.0f32; n];
+    // Eight running maxima, one per lane, so the search vectorises (a maximum is exact in
+    // any order).
+    let mut lane_max = [0.0f32; 8];
     for y in r..h - r {
         let above = &plane.data[(y - 1) * w + r..(y - 1) * w + r + n];
         let here = &plane.data[y * w + r - 1..y * w + r + n + 1];
@@ -337,65 +435,21 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
         for (x, sum) in scratch.cross_sum.iter_mut().enumerate() {
             *sum = here[x + 1] + here[x] + here[x + 2] + above[x] + below[x];
         }
-        // The stronger of the two scales: r = 5 for large squares, r = 3 for small ones.
-        scratch.responses(&rows_of(&RING, y), &mut best);
-        scratch.responses(&rows_of(&SMALL_RING, y), &mut value);
-        for (b, v) in best.iter_mut().zip(&value) {
-            *b = b.max(*v);
-        }
         let out = &mut response[y * w + r..y * w + r + n];
-        for (o, v) in out.iter_mut().zip(&best) {
-            if *v > 0.0 {
-                *o = *v;
-                max_response = max_response.max(*v);
+        scratch.responses(&rows_of(&RING, y), out);
+        scratch.responses(&rows_of(&SMALL_RING, y), &mut small);
+        for (o, v) in out.iter_mut().zip(&small) {
+            let best = o.max(*v);
+            *o = if best > 0.0 { best } else { 0.0 };
+        }
+        for chunk in out.chunks(8) {
+            for (m, v) in lane_max.iter_mut().zip(chunk) {
+                *m = m.max(*v);
             }
         }
     }
-    if max_response <= 0.0 {
-        return Vec::new();
-    }
-    let threshold = max_response * config.min_relative_response as f32;
-    let nms = 3usize;
-    let mut candidates = Vec::new();
-    for y in r..h - r {
-        for x in r..w - r {
-            let value = response[y * w + x];
-            if value <= threshold {
-                continue;
-            }
-            let mut is_max = true;
-            'window: for yy in y.saturating_sub(nms)..=(y + nms).min(h - 1) {
-                for xx in x.saturating_sub(nms)..=(x + nms).min(w - 1) {
-                    let other = response[yy * w + xx];
-                    // Ties go to the first in raster order, so a plateau yields one candidate.
-                    if other > value || (other == value && (yy, xx) < (y, x)) {
-                        is_max = false;
-                        break 'window;
-                    }
-                }
-            }
-            if is_max {
-                // Centre of mass of the response around the maximum: a better start for
-                // the lattice walk than the integer pixel.
-                let (mut sx, mut sy, mut sw) = (0.0, 0.0, 0.0);
-                for yy in y - 1..=y + 1 {
-                    for xx in x - 1..=x + 1 {
-                        let v = f64::from(response[yy * w + xx]);
-                        sx += v * xx as f64;
-                        sy += v * yy as f64;
-                        sw += v;
-                    }
-                }
-                candidates.push(Candidate {
-                    x: sx / sw,
-                    y: sy / sw,
-                    response: value,
-                });
-            }
-        }
-    }
-    candidates.sort_by(|a, b| b.response.total_cmp(&a.response));
-    candidates
+    let max_response = lane_max.iter().fold(0.0f32, |m, &v| m.max(v));
+    (response, max_response)
 }
 
 /// Buffers for the ChESS responses of one row, in the plane's integer units.
