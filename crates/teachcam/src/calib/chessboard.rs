@@ -431,10 +431,7 @@ fn chess_response(plane: &Plane) -> (Vec<f32>, f32) {
         let above = &plane.data[(y - 1) * w + r..(y - 1) * w + r + n];
         let here = &plane.data[y * w + r - 1..y * w + r + n + 1];
         let below = &plane.data[(y + 1) * w + r..(y + 1) * w + r + n];
-        // Five samples below 16 · 256 each: the sum fits in 16 bits.
-        for (x, sum) in scratch.cross_sum.iter_mut().enumerate() {
-            *sum = here[x + 1] + here[x] + here[x + 2] + above[x] + below[x];
-        }
+        scratch.set_cross(above, here, below);
         let out = &mut response[y * w + r..y * w + r + n];
         scratch.responses(&rows_of(&RING, y), out);
         scratch.responses(&rows_of(&SMALL_RING, y), &mut small);
@@ -459,8 +456,8 @@ struct ChessRow {
     contrast: Vec<i16>,
     /// Per pixel, `Σ a_n` over the ring: at most 16 · 4080, so it fits `u16`.
     ring_sum: Vec<u16>,
-    /// Per pixel, the sum of its 5-pixel cross (centre and 4-neighbours).
-    cross_sum: Vec<u16>,
+    /// Per pixel, the mean of its 5-pixel cross (centre and 4-neighbours), gray levels.
+    cross_mean: Vec<f32>,
     gray_per_unit: f32,
 }
 
@@ -469,21 +466,36 @@ impl ChessRow {
         Self {
             contrast: vec![0; len],
             ring_sum: vec![0; len],
-            cross_sum: vec![0; len],
+            cross_mean: vec![0.0; len],
             gray_per_unit,
         }
     }
 
+    /// Sets the cross means of row `here` (one sample wider on each side than the row),
+    /// between rows `above` and `below`, for every ring sharing this centre row.
+    fn set_cross(&mut self, above: &[u16], here: &[u16], below: &[u16]) {
+        let unit = self.gray_per_unit;
+        for (x, mean) in self.cross_mean.iter_mut().enumerate() {
+            // Five samples below 16 · 256 each: the sum fits in 16 bits. The same `f32`
+            // division of the same exact sum as an all-`f32` evaluation.
+            let sum = here[x + 1] + here[x] + here[x + 2] + above[x] + below[x];
+            *mean = f32::from(sum) * unit / 5.0;
+        }
+    }
+
     /// ChESS responses of one row in gray levels: `out[x]` for the ring whose sample `k` is
-    /// `ring[k][x]`, around pixels whose 5-pixel cross sums `cross_sum[x]`:
-    /// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}| - 16 |mean(a) - cross mean|`.
-    /// The sums are exact in integers; the last term is then formed with the same `f32`
-    /// operations on the same (exact) values as an all-`f32` evaluation, so it equals it.
+    /// `ring[k][x]`, around pixels whose cross means are set by [`ChessRow::set_cross`]:
+    /// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}|
+    /// - 16 |mean(a) - cross mean|`. The sums are exact in integers; the last term is then
+    /// formed with the same `f32` operations on the same exact values as an all-`f32`
+    /// evaluation, so it equals it bit for bit.
     fn responses(&mut self, ring: &[&[u16]; 16], out: &mut [f32]) {
         let len = out.len();
         let (contrast, ring_sum) = (&mut self.contrast[..len], &mut self.ring_sum[..len]);
         contrast.fill(0);
         ring_sum.fill(0);
+        // One pass per quarter turn n: samples n, n + 4, n + 8, n + 12 give one term of the
+        // first sum and two of the second. Each pass adds at most 2 · 4080 in magnitude.
         for k in 0..4 {
             let (a, b, c, d) = (
                 &ring[k][..len],
@@ -492,22 +504,16 @@ impl ChessRow {
                 &ring[k + 12][..len],
             );
             for x in 0..len {
-                contrast[x] += (a[x] as i16 + b[x] as i16 - c[x] as i16 - d[x] as i16).abs();
-            }
-        }
-        for k in 0..8 {
-            let (a, b) = (&ring[k][..len], &ring[k + 8][..len]);
-            for x in 0..len {
-                contrast[x] -= (a[x] as i16 - b[x] as i16).abs();
-                ring_sum[x] += a[x] + b[x];
+                let (a, b, c, d) = (a[x] as i16, b[x] as i16, c[x] as i16, d[x] as i16);
+                contrast[x] += (a + b - c - d).abs() - (a - b).abs() - (c - d).abs();
+                ring_sum[x] += (a + b + c + d) as u16;
             }
         }
         let unit = self.gray_per_unit;
         let ring_mean_per_unit = unit / 16.0;
         for (x, o) in out.iter_mut().enumerate() {
-            let cross_mean = f32::from(self.cross_sum[x]) * unit / 5.0;
             let ring_mean = f32::from(ring_sum[x]) * ring_mean_per_unit;
-            *o = f32::from(contrast[x]) * unit - 16.0 * (ring_mean - cross_mean).abs();
+            *o = f32::from(contrast[x]) * unit - 16.0 * (ring_mean - self.cross_mean[x]).abs();
         }
     }
 }
