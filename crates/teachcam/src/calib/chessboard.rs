@@ -183,22 +183,21 @@ impl Plane {
     /// is kept as those sums in sixteenths of a gray level (what `f32` would hold exactly).
     fn smoothed(&self) -> Self {
         let (w, h) = (self.width, self.height);
-        let mut across = vec![0u16; w * h];
-        for (row, out) in self.data.chunks_exact(w).zip(across.chunks_exact_mut(w)) {
-            out[0] = 3 * row[0] + row[1];
-            out[w - 1] = row[w - 2] + 3 * row[w - 1];
-            let inner = out[1..w - 1].iter_mut().zip(&row[..w - 2]);
-            for ((o, &l), (&c, &r)) in inner.zip(row[1..w - 1].iter().zip(&row[2..])) {
-                *o = l + 2 * c + r;
-            }
-        }
         let mut data = vec![0u16; w * h];
+        // Down the columns first, one row at a time: integer sums are exact in any order.
+        let mut down = vec![0u16; w];
         for (y, out) in data.chunks_exact_mut(w).enumerate() {
-            let up = &across[y.saturating_sub(1) * w..][..w];
-            let here = &across[y * w..][..w];
-            let down = &across[(y + 1).min(h - 1) * w..][..w];
-            for ((o, &u), (&c, &d)) in out.iter_mut().zip(up).zip(here.iter().zip(down)) {
-                *o = u + 2 * c + d;
+            let above = &self.data[y.saturating_sub(1) * w..][..w];
+            let here = &self.data[y * w..][..w];
+            let below = &self.data[(y + 1).min(h - 1) * w..][..w];
+            for ((d, &a), (&c, &b)) in down.iter_mut().zip(above).zip(here.iter().zip(below)) {
+                *d = a + 2 * c + b;
+            }
+            out[0] = 3 * down[0] + down[1];
+            out[w - 1] = down[w - 2] + 3 * down[w - 1];
+            let inner = out[1..w - 1].iter_mut().zip(&down[..w - 2]);
+            for ((o, &l), (&c, &r)) in inner.zip(down[1..w - 1].iter().zip(&down[2..])) {
+                *o = l + 2 * c + r;
             }
         }
         Self {
@@ -311,14 +310,11 @@ pub fn find_chessboard_corners(
 
 /// ChESS responses, non-maximum suppressed over a 7x7 neighbourhood, strongest first.
 fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
-    let (response, max_response) = chess_response(plane);
-    if max_response <= 0.0 {
-        return Vec::new();
-    }
-    let threshold = max_response * config.min_relative_response as f32;
+    let response = chess_response(plane);
     let (w, h) = (plane.width, plane.height);
     let r = RING_RADIUS as usize;
-    let mut maxima = local_maxima(&response, w, h, r, threshold);
+    let relative = config.min_relative_response as f32;
+    let mut maxima = local_maxima(&response, w, h, r, relative);
     // Raster order before the stable sort below, so equal responses keep a fixed order.
     maxima.sort_unstable();
     let mut candidates: Vec<Candidate> = maxima
@@ -346,54 +342,59 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     candidates
 }
 
-/// Pixels `(y, x)` of `response` (`w x h`, zero within `r` of the border) above `threshold`
-/// that beat every other pixel of their 7x7 neighbourhood; ties go to the first in raster
-/// order, so a plateau yields one. Only each 4x4 block's own winner is checked against its
-/// neighbourhood (Neubeck & Van Gool 2006): a pixel's block lies inside its 7x7 window, so a
-/// pixel that beats its window beats its block, and a block's loser cannot be a maximum.
+/// Pixels `(y, x)` of `response` (`w x h`, zero within `r` of the border) above
+/// `relative` times the largest response that beat every other pixel of their 7x7
+/// neighbourhood; ties go to the first in raster order, so a plateau yields one. Only each
+/// 4x4 block's own winner is checked against its neighbourhood (Neubeck & Van Gool 2006): a
+/// pixel's block lies inside its 7x7 window, so a pixel that beats its window beats its
+/// block, and a block's loser cannot be a maximum.
 fn local_maxima(
     response: &[f32],
     w: usize,
     h: usize,
     r: usize,
-    threshold: f32,
+    relative: f32,
 ) -> Vec<(usize, usize)> {
     const NMS: usize = 3;
     const BLOCK: usize = NMS + 1;
+    let (x_end, y_end) = (w - r, h - r);
+    let block_xs: Vec<usize> = (r..x_end).step_by(BLOCK).collect();
+    let block_ys: Vec<usize> = (r..y_end).step_by(BLOCK).collect();
+    // Each block's maximum: columns over the block's rows (a vectorised pass), then across.
+    let mut block_max = vec![0.0f32; block_xs.len() * block_ys.len()];
+    let mut column_max = vec![0.0f32; w];
+    for (row_of_blocks, &y0) in block_max.chunks_exact_mut(block_xs.len()).zip(&block_ys) {
+        column_max.copy_from_slice(&response[y0 * w..(y0 + 1) * w]);
+        for yy in y0 + 1..(y0 + BLOCK).min(y_end) {
+            for (m, v) in column_max.iter_mut().zip(&response[yy * w..(yy + 1) * w]) {
+                *m = larger(*m, *v);
+            }
+        }
+        for (m, &x0) in row_of_blocks.iter_mut().zip(&block_xs) {
+            *m = column_max[x0..(x0 + BLOCK).min(x_end)]
+                .iter()
+                .fold(0.0f32, |m, &v| larger(m, v));
+        }
+    }
+    let threshold = relative * block_max.iter().fold(0.0f32, |m, &v| larger(m, v));
     let beats = |value: f32, y: usize, x: usize, yy: usize, xx: usize| {
         let other = response[yy * w + xx];
         value > other || (value == other && (y, x) <= (yy, xx))
     };
     let mut maxima = Vec::new();
-    let (x_end, y_end) = (w - r, h - r);
-    let mut column_max = vec![0.0f32; w];
-    for y0 in (r..y_end).step_by(BLOCK) {
-        let block_rows = y0..(y0 + BLOCK).min(y_end);
-        column_max.copy_from_slice(&response[y0 * w..(y0 + 1) * w]);
-        for yy in block_rows.clone().skip(1) {
-            for (m, v) in column_max.iter_mut().zip(&response[yy * w..(yy + 1) * w]) {
-                *m = m.max(*v);
-            }
-        }
-        for x0 in (r..x_end).step_by(BLOCK) {
-            let block_cols = x0..(x0 + BLOCK).min(x_end);
-            let block_max = column_max[block_cols.clone()]
-                .iter()
-                .fold(0.0f32, |m, &v| m.max(v));
-            if block_max <= threshold {
+    for (row_of_blocks, &y0) in block_max.chunks_exact(block_xs.len()).zip(&block_ys) {
+        for (&value, &x0) in row_of_blocks.iter().zip(&block_xs) {
+            if value <= threshold {
                 continue;
             }
             // The block's winner: its first pixel in raster order holding the block's maximum.
-            let Some((y, x)) = block_rows
-                .clone()
-                .flat_map(|yy| block_cols.clone().map(move |xx| (yy, xx)))
-                .find(|&(yy, xx)| response[yy * w + xx] == block_max)
+            let Some((y, x)) = (y0..(y0 + BLOCK).min(y_end))
+                .flat_map(|yy| (x0..(x0 + BLOCK).min(x_end)).map(move |xx| (yy, xx)))
+                .find(|&(yy, xx)| response[yy * w + xx] == value)
             else {
                 continue;
             };
-            let value = block_max;
-            let rows = y.saturating_sub(NMS)..=(y + NMS).min(h - 1);
-            let is_max = rows.into_iter().all(|yy| {
+            let is_max = (y.saturating_sub(NMS)..=(y + NMS).min(h - 1)).all(|yy| {
                 (x.saturating_sub(NMS)..=(x + NMS).min(w - 1)).all(|xx| beats(value, y, x, yy, xx))
             });
             if is_max {
@@ -405,9 +406,8 @@ fn local_maxima(
 }
 
 /// The ChESS response at every pixel, the stronger of two ring radii (5 px for large
-/// squares, 3 px for small ones), 0 where not positive and within the ring of the border;
-/// with the largest response.
-fn chess_response(plane: &Plane) -> (Vec<f32>, f32) {
+/// squares, 3 px for small ones), 0 where not positive and within the ring of the border.
+fn chess_response(plane: &Plane) -> Vec<f32> {
     let (w, h) = (plane.width, plane.height);
     let r = RING_RADIUS as usize;
     let mut response = vec![0.0f32; w * h];
@@ -424,9 +424,6 @@ fn chess_response(plane: &Plane) -> (Vec<f32>, f32) {
     };
     let mut scratch = ChessRow::new(n, plane.gray_per_unit);
     let mut small = vec![0.0f32; n];
-    // Eight running maxima, one per lane, so the search vectorises (a maximum is exact in
-    // any order).
-    let mut lane_max = [0.0f32; 8];
     for y in r..h - r {
         let above = &plane.data[(y - 1) * w + r..(y - 1) * w + r + n];
         let here = &plane.data[y * w + r - 1..y * w + r + n + 1];
@@ -436,17 +433,17 @@ fn chess_response(plane: &Plane) -> (Vec<f32>, f32) {
         scratch.responses(&rows_of(&RING, y), out);
         scratch.responses(&rows_of(&SMALL_RING, y), &mut small);
         for (o, v) in out.iter_mut().zip(&small) {
-            let best = o.max(*v);
+            let best = larger(*o, *v);
             *o = if best > 0.0 { best } else { 0.0 };
         }
-        for chunk in out.chunks(8) {
-            for (m, v) in lane_max.iter_mut().zip(chunk) {
-                *m = m.max(*v);
-            }
-        }
     }
-    let max_response = lane_max.iter().fold(0.0f32, |m, &v| m.max(v));
-    (response, max_response)
+    response
+}
+
+/// The larger of two responses. Responses are never NaN, so a plain comparison is exact; it
+/// compiles to one vector instruction, where `f32::max` adds NaN handling to every lane.
+fn larger(a: f32, b: f32) -> f32 {
+    if b > a { b } else { a }
 }
 
 /// Buffers for the ChESS responses of one row, in the plane's integer units.

@@ -84,16 +84,18 @@ fn corner_subpix(
                 ax * ay,
             );
             let (bx, by) = (bx as usize, by as usize);
-            // A power of two: the samples are the same numbers `Plane::at` gives.
+            // Weights times the plane's unit (a power of two): the same products as scaling
+            // the samples to gray levels first.
             let unit = f64::from(plane.gray_per_unit);
-            for i in 0..buffer_side {
-                let top = &plane.data[(by + i) * plane.width + bx..];
-                let bottom = &plane.data[(by + i + 1) * plane.width + bx..];
-                for j in 0..buffer_side {
-                    buffer[i * buffer_side + j] = w00 * (unit * f64::from(top[j]))
-                        + w01 * (unit * f64::from(top[j + 1]))
-                        + w10 * (unit * f64::from(bottom[j]))
-                        + w11 * (unit * f64::from(bottom[j + 1]));
+            let (w00, w01, w10, w11) = (w00 * unit, w01 * unit, w10 * unit, w11 * unit);
+            for (i, out) in buffer.chunks_exact_mut(buffer_side).enumerate() {
+                let top = &plane.data[(by + i) * plane.width + bx..][..=buffer_side];
+                let bottom = &plane.data[(by + i + 1) * plane.width + bx..][..=buffer_side];
+                for (j, o) in out.iter_mut().enumerate() {
+                    *o = w00 * f64::from(top[j])
+                        + w01 * f64::from(top[j + 1])
+                        + w10 * f64::from(bottom[j])
+                        + w11 * f64::from(bottom[j + 1]);
                 }
             }
         } else {
@@ -103,23 +105,7 @@ fn corner_subpix(
                 }
             }
         }
-        let (mut a, mut b, mut c, mut bb1, mut bb2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for i in 0..side {
-            let py = f64::from(i as i32 - half);
-            for j in 0..side {
-                let px = f64::from(j as i32 - half);
-                let m = mask[i * side + j];
-                let at = (i + 1) * buffer_side + j + 1;
-                let gx = buffer[at + 1] - buffer[at - 1];
-                let gy = buffer[at + buffer_side] - buffer[at - buffer_side];
-                let (gxx, gxy, gyy) = (gx * gx * m, gx * gy * m, gy * gy * m);
-                a += gxx;
-                b += gxy;
-                c += gyy;
-                bb1 += gxx * px + gxy * py;
-                bb2 += gxy * px + gyy * py;
-            }
-        }
+        let [a, b, c, bb1, bb2] = normal_equations(&buffer, buffer_side, &mask, half);
         let det = a * c - b * b;
         if det.abs() <= f64::EPSILON * f64::EPSILON {
             break;
@@ -145,6 +131,54 @@ fn corner_subpix(
     } else {
         q
     }
+}
+
+/// The sums of OpenCV's normal equations over a `(2 half + 1)²` window whose samples, with a
+/// one-pixel border, are `buffer` (rows of `buffer_side`): with `g` the central-difference
+/// gradient, `m` the mask and `p` the offset from the window's centre,
+/// `[Σ m gx², Σ m gx gy, Σ m gy², Σ m (gx² px + gx gy py), Σ m (gx gy px + gy² py)]`.
+/// Summed in four interleaved lanes so the loop vectorises: the order of 529 terms changes
+/// the sums by ~1e-16 relative, and the corner by far less than the 0.001 px stopping step.
+fn normal_equations(buffer: &[f64], buffer_side: usize, mask: &[f64], half: i32) -> [f64; 5] {
+    const LANES: usize = 4;
+    let side = buffer_side - 2;
+    let mut lanes = [[0.0f64; LANES]; 5];
+    let mut add = |lane: usize, m: f64, gx: f64, gy: f64, px: f64, py: f64| {
+        let (gxx, gxy, gyy) = (gx * gx * m, gx * gy * m, gy * gy * m);
+        lanes[0][lane] += gxx;
+        lanes[1][lane] += gxy;
+        lanes[2][lane] += gyy;
+        lanes[3][lane] += gxx * px + gxy * py;
+        lanes[4][lane] += gxy * px + gyy * py;
+    };
+    for i in 0..side {
+        let py = f64::from(i as i32 - half);
+        let up = &buffer[i * buffer_side + 1..][..side];
+        let down = &buffer[(i + 2) * buffer_side + 1..][..side];
+        let left = &buffer[(i + 1) * buffer_side..][..side];
+        let right = &buffer[(i + 1) * buffer_side + 2..][..side];
+        let mask = &mask[i * side..][..side];
+        let body = side - side % LANES;
+        for j0 in (0..body).step_by(LANES) {
+            for lane in 0..LANES {
+                let j = j0 + lane;
+                let px = f64::from(j as i32 - half);
+                add(lane, mask[j], right[j] - left[j], down[j] - up[j], px, py);
+            }
+        }
+        for j in body..side {
+            let px = f64::from(j as i32 - half);
+            add(
+                j - body,
+                mask[j],
+                right[j] - left[j],
+                down[j] - up[j],
+                px,
+                py,
+            );
+        }
+    }
+    lanes.map(|lane| lane.iter().sum())
 }
 
 /// The gradient structure tensor `Σ g gᵀ` over a `(2 half + 1)²` window around `p`, as its
