@@ -456,8 +456,8 @@ fn larger(a: f32, b: f32) -> f32 {
 
 /// Buffers for the ChESS responses of a run of pixels, in the plane's integer units.
 struct ChessRow {
-    /// Per pixel, `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}|`:
-    /// at most 4 · 2 · 4080 in magnitude for samples below 16 · 256, so it fits `i16`.
+    /// Per pixel, half of `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}|`:
+    /// twice it is at most 4 · 2 · 4080 in magnitude for samples below 16 · 256, so it fits `i16`.
     contrast: Vec<i16>,
     /// Per pixel, `Σ a_n` over the ring: at most 16 · 4080, so it fits `u16`.
     ring_sum: Vec<u16>,
@@ -495,7 +495,11 @@ impl ChessRow {
         let len = out.len();
         let (contrast, ring_sum) = (&mut self.contrast[..len], &mut self.ring_sum[..len]);
         // One pass per quarter turn n: samples n, n + 4, n + 8, n + 12 give one term of the
-        // first sum and two of the second. Each pass adds at most 2 · 4080 in magnitude.
+        // first sum and two of the second. With the opposite pairs as intervals
+        // [lo1, hi1] ∋ a_n, a_{n+8} and [lo2, hi2] ∋ a_{n+4}, a_{n+12}, the three terms
+        // |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - |a_n - a_{n+8}| - |a_{n+4} - a_{n+12}| are
+        // exactly 2 max(lo1 - hi2, lo2 - hi1), twice the signed gap between the intervals:
+        // fewer operations, same integer. Each pass adds at most 4080 in magnitude.
         for k in 0..4 {
             let (a, b, c, d) = (
                 &ring[k][..len],
@@ -505,13 +509,14 @@ impl ChessRow {
             );
             for x in 0..len {
                 let (a, b, c, d) = (a[x] as i16, b[x] as i16, c[x] as i16, d[x] as i16);
-                let term = (a + b - c - d).abs() - (a - b).abs() - (c - d).abs();
-                let sum = (a + b + c + d) as u16;
+                let (lo1, hi1, lo2, hi2) = (a.min(b), a.max(b), c.min(d), c.max(d));
+                let gap = (lo1 - hi2).max(lo2 - hi1);
+                let sum = (lo1 + hi1 + lo2 + hi2) as u16;
                 // The first pass sets the sums, so no pass to clear them.
                 (contrast[x], ring_sum[x]) = if k == 0 {
-                    (term, sum)
+                    (gap, sum)
                 } else {
-                    (contrast[x] + term, ring_sum[x] + sum)
+                    (contrast[x] + gap, ring_sum[x] + sum)
                 };
             }
         }
@@ -520,7 +525,8 @@ impl ChessRow {
         let cross_mean = &cross_mean[..len];
         for (x, o) in out.iter_mut().enumerate() {
             let ring_mean = f32::from(ring_sum[x]) * ring_mean_per_unit;
-            *o = f32::from(contrast[x]) * unit - 16.0 * (ring_mean - cross_mean[x]).abs();
+            let contrast = f32::from(2 * contrast[x]) * unit;
+            *o = contrast - 16.0 * (ring_mean - cross_mean[x]).abs();
         }
     }
 }
