@@ -35,6 +35,8 @@ use crate::geometry::{Pixel, Point3};
 
 use super::{Chessboard, zhang};
 
+#[cfg(test)]
+mod fast_paths;
 mod subpix;
 
 use subpix::refine_grid;

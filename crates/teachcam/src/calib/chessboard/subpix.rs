@@ -183,7 +183,12 @@ fn corner_subpix(
 /// `[Σ m gx², Σ m gx gy, Σ m gy², Σ m (gx² px + gx gy py), Σ m (gx gy px + gy² py)]`.
 /// Summed in four interleaved lanes so the loop vectorises: the order of 529 terms changes
 /// the sums by ~1e-16 relative, and the corner by far less than the 0.001 px stopping step.
-fn normal_equations(buffer: &[f64], buffer_side: usize, mask: &[f64], half: i32) -> [f64; 5] {
+pub(super) fn normal_equations(
+    buffer: &[f64],
+    buffer_side: usize,
+    mask: &[f64],
+    half: i32,
+) -> [f64; 5] {
     const LANES: usize = 4;
     let side = buffer_side - 2;
     let mut lanes = [[0.0f64; LANES]; 5];
