@@ -473,8 +473,9 @@ fn larger(a: f32, b: f32) -> f32 {
 
 /// Buffers for the ChESS responses of a run of pixels, in the plane's integer units.
 struct ChessRow {
-    /// Per pixel, half of `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}|`:
-    /// twice it is at most 4 · 2 · 4080 in magnitude for samples below 16 · 256, so it fits `i16`.
+    /// Per pixel, half of
+    /// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}|`: twice it is
+    /// at most 4 · 2 · 4080 in magnitude for samples below 16 · 256, so it fits `i16`.
     contrast: Vec<i16>,
     /// Per pixel, `Σ a_n` over the ring: at most 16 · 4080, so it fits `u16`.
     ring_sum: Vec<u16>,
@@ -504,8 +505,8 @@ impl ChessRow {
 
     /// ChESS responses in gray levels: `out[x]` for the ring whose sample `k` is
     /// `ring[k][x]`, around pixels whose cross means are `cross_mean[x]`:
-    /// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}|
-    /// - 16 |mean(a) - cross mean|`. The sums are exact in integers; the last term is then
+    /// `Σ_{n<4} |a_n + a_{n+8} - a_{n+4} - a_{n+12}| - Σ_{n<8} |a_n - a_{n+8}|`
+    /// `- 16 |mean(a) - cross mean|`. The sums are exact in integers; the last term is then
     /// formed with the same `f32` operations on the same exact values as an all-`f32`
     /// evaluation, so it equals it bit for bit.
     fn responses(&mut self, ring: &[&[u16]; 16], cross_mean: &[f32], out: &mut [f32]) {

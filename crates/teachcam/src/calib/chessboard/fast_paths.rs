@@ -111,7 +111,8 @@ proptest! {
         let expected = smoothed_f32(&image);
         for y in 0..smooth.height {
             for x in 0..smooth.width {
-                prop_assert_eq!(smooth.at(x, y).to_bits(), expected[y * smooth.width + x].to_bits());
+                let want = expected[y * smooth.width + x];
+                prop_assert_eq!(smooth.at(x, y).to_bits(), want.to_bits());
             }
         }
     }
@@ -126,12 +127,14 @@ proptest! {
         for y in 0..h {
             for x in 0..w {
                 let expected = if (r..h - r).contains(&y) && (r..w - r).contains(&x) {
-                    let best = chess_f32(&plain, w, x, y, &RING).max(chess_f32(&plain, w, x, y, &SMALL_RING));
+                    let large = chess_f32(&plain, w, x, y, &RING);
+                    let best = large.max(chess_f32(&plain, w, x, y, &SMALL_RING));
                     if best > 0.0 { best } else { 0.0 }
                 } else {
                     0.0
                 };
-                prop_assert_eq!(response[y * w + x].to_bits(), expected.to_bits(), "pixel ({}, {})", x, y);
+                let got = response[y * w + x];
+                prop_assert_eq!(got.to_bits(), expected.to_bits(), "pixel ({}, {})", x, y);
             }
         }
     }
