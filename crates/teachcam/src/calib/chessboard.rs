@@ -332,11 +332,10 @@ pub fn find_chessboard_corners(
 
 /// ChESS responses, non-maximum suppressed over a 7x7 neighbourhood, strongest first.
 fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
-    let response = chess_response(plane);
+    let (response, blocks) = chess_response(plane);
     let (w, h) = (plane.width, plane.height);
-    let r = RING_RADIUS as usize;
     let relative = config.min_relative_response as f32;
-    let mut maxima = local_maxima(&response, w, h, r, relative);
+    let mut maxima = local_maxima(&response, &blocks, w, h, relative);
     // Raster order before the stable sort below, so equal responses keep a fixed order.
     maxima.sort_unstable();
     let mut candidates: Vec<Candidate> = maxima
@@ -364,40 +363,74 @@ fn saddle_candidates(plane: &Plane, config: &CornerConfig) -> Vec<Candidate> {
     candidates
 }
 
-/// Pixels `(y, x)` of `response` (`w x h`, zero within `r` of the border) above
-/// `relative` times the largest response that beat every other pixel of their 7x7
-/// neighbourhood; ties go to the first in raster order, so a plateau yields one. Only each
-/// 4x4 block's own winner is checked against its neighbourhood (Neubeck & Van Gool 2006): a
-/// pixel's block lies inside its 7x7 window, so a pixel that beats its window beats its
-/// block, and a block's loser cannot be a maximum.
-fn local_maxima(
-    response: &[f32],
-    w: usize,
-    h: usize,
+/// Maxima of a response over the 4x4 blocks tiling its interior `[r, w - r) x [r, h - r)`,
+/// gathered one row at a time while the row is still in the cache.
+struct BlockMaxima {
     r: usize,
-    relative: f32,
-) -> Vec<(usize, usize)> {
-    const NMS: usize = 3;
-    const BLOCK: usize = NMS + 1;
-    let (x_end, y_end) = (w - r, h - r);
-    let block_xs: Vec<usize> = (r..x_end).step_by(BLOCK).collect();
-    let block_ys: Vec<usize> = (r..y_end).step_by(BLOCK).collect();
-    // Each block's maximum: columns over the block's rows (a vectorised pass), then across.
-    let mut block_max = vec![0.0f32; block_xs.len() * block_ys.len()];
-    let mut column_max = vec![0.0f32; w];
-    for (row_of_blocks, &y0) in block_max.chunks_exact_mut(block_xs.len()).zip(&block_ys) {
-        column_max.copy_from_slice(&response[y0 * w..(y0 + 1) * w]);
-        for yy in y0 + 1..(y0 + BLOCK).min(y_end) {
-            for (m, v) in column_max.iter_mut().zip(&response[yy * w..(yy + 1) * w]) {
+    y_end: usize,
+    /// Blocks per row of blocks.
+    cols: usize,
+    /// Row-major, `cols` a row; block `(by, bx)` starts at pixel `(r + 4 by, r + 4 bx)`.
+    values: Vec<f32>,
+    /// Per interior column, the maximum over the current row of blocks so far.
+    column_max: Vec<f32>,
+}
+
+impl BlockMaxima {
+    const SIDE: usize = 4;
+
+    fn new(w: usize, h: usize, r: usize) -> Self {
+        let cols = (w - 2 * r).div_ceil(Self::SIDE);
+        let rows = (h - 2 * r).div_ceil(Self::SIDE);
+        Self {
+            r,
+            y_end: h - r,
+            cols,
+            values: vec![0.0; cols * rows],
+            column_max: vec![0.0; w - 2 * r],
+        }
+    }
+
+    /// Takes the interior of row `y` (`interior[x - r]` for pixel `x`); rows come in order.
+    fn add_row(&mut self, y: usize, interior: &[f32]) {
+        let in_block = (y - self.r) % Self::SIDE;
+        if in_block == 0 {
+            self.column_max.copy_from_slice(interior);
+        } else {
+            for (m, v) in self.column_max.iter_mut().zip(interior) {
                 *m = larger(*m, *v);
             }
         }
-        for (m, &x0) in row_of_blocks.iter_mut().zip(&block_xs) {
-            *m = column_max[x0..(x0 + BLOCK).min(x_end)]
-                .iter()
-                .fold(0.0f32, |m, &v| larger(m, v));
+        if in_block + 1 == Self::SIDE || y + 1 == self.y_end {
+            let by = (y - self.r) / Self::SIDE;
+            let row = &mut self.values[by * self.cols..(by + 1) * self.cols];
+            for (m, run) in row.iter_mut().zip(self.column_max.chunks(Self::SIDE)) {
+                *m = run.iter().fold(0.0f32, |m, &v| larger(m, v));
+            }
         }
     }
+}
+
+/// Pixels `(y, x)` of `response` (`w x h`, zero within `r` of the border, its block maxima in
+/// `blocks`) above `relative` times the largest response that beat every other pixel of
+/// their 7x7 neighbourhood; ties go to the first in raster order, so a plateau yields one.
+/// Only each 4x4 block's own winner is checked against its neighbourhood (Neubeck & Van Gool
+/// 2006): a pixel's block lies inside its 7x7 window, so a pixel that beats its window beats
+/// its block, and a block's loser cannot be a maximum.
+fn local_maxima(
+    response: &[f32],
+    blocks: &BlockMaxima,
+    w: usize,
+    h: usize,
+    relative: f32,
+) -> Vec<(usize, usize)> {
+    const NMS: usize = 3;
+    const BLOCK: usize = BlockMaxima::SIDE;
+    let r = blocks.r;
+    let (x_end, y_end) = (w - r, h - r);
+    let block_max = &blocks.values;
+    let block_xs: Vec<usize> = (r..x_end).step_by(BLOCK).collect();
+    let block_ys: Vec<usize> = (r..y_end).step_by(BLOCK).collect();
     let threshold = relative * block_max.iter().fold(0.0f32, |m, &v| larger(m, v));
     let beats = |value: f32, y: usize, x: usize, yy: usize, xx: usize| {
         let other = response[yy * w + xx];
@@ -428,8 +461,9 @@ fn local_maxima(
 }
 
 /// The ChESS response at every pixel, the stronger of two ring radii (5 px for large
-/// squares, 3 px for small ones), 0 where not positive and within the ring of the border.
-fn chess_response(plane: &Plane) -> Vec<f32> {
+/// squares, 3 px for small ones), 0 where not positive and within the ring of the border;
+/// with its maxima over 4x4 blocks.
+fn chess_response(plane: &Plane) -> (Vec<f32>, BlockMaxima) {
     let (w, h) = (plane.width, plane.height);
     let r = RING_RADIUS as usize;
     let mut response = vec![0.0f32; w * h];
@@ -449,6 +483,7 @@ fn chess_response(plane: &Plane) -> Vec<f32> {
     let mut scratch = ChessRow::new(TILE.min(n), plane.gray_per_unit);
     let mut cross_mean = vec![0.0f32; n];
     let mut small = vec![0.0f32; TILE.min(n)];
+    let mut blocks = BlockMaxima::new(w, h, r);
     for y in r..h - r {
         let above = &plane.data[(y - 1) * w + r..(y - 1) * w + r + n];
         let here = &plane.data[y * w + r - 1..y * w + r + n + 1];
@@ -466,8 +501,9 @@ fn chess_response(plane: &Plane) -> Vec<f32> {
                 *o = if best > 0.0 { best } else { 0.0 };
             }
         }
+        blocks.add_row(y, &response[y * w + r..][..n]);
     }
-    response
+    (response, blocks)
 }
 
 /// The larger of two responses. Responses are never NaN, so a plain comparison is exact; it

@@ -7,7 +7,16 @@ use image::GrayImage;
 use proptest::prelude::*;
 
 use super::subpix::normal_equations;
-use super::{Plane, RING, RING_RADIUS, SMALL_RING, chess_response, local_maxima};
+use super::{BlockMaxima, Plane, RING, RING_RADIUS, SMALL_RING, chess_response, local_maxima};
+
+/// Block maxima of a whole response map, row after row.
+fn block_maxima(response: &[f32], w: usize, h: usize, r: usize) -> BlockMaxima {
+    let mut blocks = BlockMaxima::new(w, h, r);
+    for y in r..h - r {
+        blocks.add_row(y, &response[y * w + r..y * w + w - r]);
+    }
+    blocks
+}
 
 /// Separable [1 2 1]/4 smoothing in `f32`, edges replicated: the definition.
 fn smoothed_f32(image: &GrayImage) -> Vec<f32> {
@@ -122,8 +131,9 @@ proptest! {
         let smooth = Plane::from_gray(&image).smoothed();
         let plain = smoothed_f32(&image);
         let (w, h) = (smooth.width, smooth.height);
-        let response = chess_response(&smooth);
+        let (response, blocks) = chess_response(&smooth);
         let r = RING_RADIUS as usize;
+        prop_assert_eq!(&blocks.values, &block_maxima(&response, w, h, r).values);
         for y in 0..h {
             for x in 0..w {
                 let expected = if (r..h - r).contains(&y) && (r..w - r).contains(&x) {
@@ -158,7 +168,8 @@ proptest! {
             })
             .collect();
         for relative in [0.04f32, 0.5, 1.0] {
-            let mut found = local_maxima(&response, w, h, r, relative);
+            let blocks = block_maxima(&response, w, h, r);
+            let mut found = local_maxima(&response, &blocks, w, h, relative);
             found.sort_unstable();
             prop_assert_eq!(found, maxima_by_full_scan(&response, w, h, relative));
         }
