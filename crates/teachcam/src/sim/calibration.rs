@@ -98,7 +98,8 @@ pub const MAX_OBLIQUITY_DEG: f64 = 60.0;
 /// True when `camera` has an image of `placement`: the whole sheet from the front, within
 /// [`MAX_OBLIQUITY_DEG`], for a held board; for the world view, every inner corner
 /// [`WORLD_VIEW_BORDER_PX`] inside the image.
-fn has_image(
+#[must_use]
+pub fn has_image(
     camera: &crate::camera::Camera,
     board: &Chessboard,
     look: &BoardLook,
