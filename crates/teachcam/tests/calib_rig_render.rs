@@ -228,10 +228,7 @@ fn rig_from_rendered_photographs_matches_truth() {
         &cameras,
         &observations,
         &WorldFrame::Board("world".into()),
-        &RigConfig {
-            refine_intrinsics: true,
-            ..RigConfig::default()
-        },
+        &RigConfig::refining((0..cameras.len()).map(CameraId)),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     for ((ours, true_camera), residual) in

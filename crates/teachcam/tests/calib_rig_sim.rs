@@ -162,10 +162,7 @@ fn calibrate_simulated(
         calibrated.name = camera.name.clone();
         cameras.push(calibrated);
     }
-    let config = RigConfig {
-        refine_intrinsics: true,
-        ..RigConfig::default()
-    };
+    let config = RigConfig::refining((0..cameras.len()).map(CameraId));
     let result = calibrate_rig(
         &corners,
         &cameras,
@@ -441,6 +438,117 @@ proptest::proptest! {
             let i = c.camera.intrinsics;
             proptest::prop_assert!([i.fx, i.fy, i.cx, i.cy, c.rms_px].iter().all(|v| v.is_finite()));
             proptest::prop_assert!(i.fx > 0.0 && i.fy > 0.0);
+        }
+    }
+}
+
+/// Observations of the simulator's calibration scene: exact projections of every corner a
+/// camera has an image of, plus Gaussian noise of `noise_px` per coordinate.
+fn observe_scene(
+    scene: &teachcam::sim::calibration::CalibrationScene,
+    noise_px: f64,
+    rng: &mut ChaCha8Rng,
+) -> Vec<RigObservation> {
+    let noise = Normal::new(0.0, noise_px).unwrap_or_else(|e| panic!("{e}"));
+    let corners = scene.board.corners_in_board();
+    let mut observations = Vec::new();
+    for placement in &scene.placements {
+        for (c, camera) in scene.rig.cameras.iter().enumerate() {
+            if !teachcam::sim::calibration::has_image(camera, &scene.board, &scene.look, placement)
+            {
+                continue;
+            }
+            let pixels: Vec<Pixel> = corners
+                .iter()
+                .map(|x| {
+                    let p = camera
+                        .project(&(placement.world_from_board * x))
+                        .unwrap_or_else(|| panic!("corner behind {}", camera.name));
+                    Pixel::new(p.x + noise.sample(rng), p.y + noise.sample(rng))
+                })
+                .collect();
+            observations.push(RigObservation {
+                camera: CameraId(c),
+                view: placement.name.clone(),
+                corners: pixels,
+            });
+        }
+    }
+    observations
+}
+
+#[test]
+#[ignore = "study"]
+fn protocol_study() {
+    use teachcam::sim::calibration::calibration_scene;
+    use teachcam::sim::scenario::{four_camera_rig, paper_rig};
+    let noise_px = 0.025;
+    for (label, rig) in [("3 cams", paper_rig()), ("4 cams", four_camera_rig())] {
+        for views in [30, 60, 100] {
+            for seed in [1u64, 2] {
+                let scene = calibration_scene(rig.clone(), views, seed);
+                let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
+                let observations = observe_scene(&scene, noise_px, &mut rng);
+                let corners = scene.board.corners_in_board();
+                let mut cameras = Vec::new();
+                for (c, camera) in scene.rig.cameras.iter().enumerate() {
+                    let views: Vec<BoardView> = observations
+                        .iter()
+                        .filter(|o| o.camera == CameraId(c))
+                        .map(|o| BoardView {
+                            name: o.view.clone(),
+                            corners: o.corners.clone(),
+                        })
+                        .collect();
+                    let mut calibrated = calibrate_intrinsics(
+                        &corners,
+                        &views,
+                        camera.image_size,
+                        &IntrinsicsConfig::default(),
+                    )
+                    .unwrap_or_else(|e| panic!("{}: {e}", camera.name))
+                    .camera;
+                    calibrated.name = camera.name.clone();
+                    cameras.push(calibrated);
+                }
+                let config = RigConfig::refining((0..cameras.len()).map(CameraId));
+                let t = std::time::Instant::now();
+                let result = calibrate_rig(
+                    &corners,
+                    &cameras,
+                    &observations,
+                    &WorldFrame::Board("world".into()),
+                    &config,
+                )
+                .unwrap_or_else(|e| panic!("{e}"));
+                let world_from_world_board =
+                    teachcam::sim::calibration::world_from_world_board(&scene.board);
+                let mut line = format!(
+                    "{label} views {views} (kept {}) seed {seed}: {:.2?}",
+                    scene.placements.len(),
+                    t.elapsed()
+                );
+                for ((ours, truth), r) in result
+                    .rig
+                    .cameras
+                    .iter()
+                    .zip(&scene.rig.cameras)
+                    .zip(&result.cameras)
+                {
+                    let truth_from_board = truth.camera_from_world * world_from_world_board;
+                    let err = ours
+                        .camera_from_world
+                        .rotation
+                        .angle_to(&truth_from_board.rotation)
+                        .to_degrees();
+                    let se = r.intrinsics_std.unwrap_or([f64::NAN; 9]);
+                    line += &format!(
+                        " | {} n{} err {:.4} σ {:.4}° cσ {:.3} pp σ {:.2},{:.2}",
+                        r.name, r.views, err, r.rotation_std_deg, r.centre_std_mm, se[2], se[3]
+                    );
+                }
+                eprintln!("{line}");
+            }
         }
     }
 }
