@@ -6,15 +6,22 @@
     reason = "tests print the measured numbers that notes/calib.md reports"
 )]
 
-use nalgebra::{Rotation3, Unit, UnitQuaternion, Vector3};
+use nalgebra::{DVector, Rotation3, Unit, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use teachcam::calib::intrinsics::{IntrinsicsConfig, calibrate_intrinsics};
-use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig};
+use teachcam::calib::rig::{
+    BundleIntrinsics, RigCalibration, RigConfig, RigObservation, WorldFrame, calibrate_rig,
+};
 use teachcam::calib::{BoardView, CalibError, Chessboard};
 use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
 use teachcam::geometry::{CameraId, Pixel, Point3, Pose, Vec3, pose_from_parts};
+use teachcam::sim::calibration::{
+    CalibrationScene, IMAGES_PER_CAMERA_FOR_0_02_DEG, PlacementCount, WORLD_VIEW,
+    calibration_scene, calibration_scene_with, has_image, world_from_world_board,
+};
+use teachcam::sim::scenario::{four_camera_rig, paper_rig};
 
 const BOARD: Chessboard = Chessboard {
     inner_cols: 9,
@@ -27,6 +34,10 @@ const SIZE: ImageSize = ImageSize {
 };
 /// Corner noise of a good sub-pixel detector on a sharp board, pixels (per coordinate).
 const NOISE_PX: f64 = 0.1;
+/// Our detector's corner error on rendered 1280x1024 views of the paper's rig, per coordinate
+/// (`calib_rig_render.rs::detector_corner_noise_on_rendered_paper_rig_views`: rms 0.025 px
+/// pooled over 15 images, 0.019–0.033 px per image; notes/rig.md).
+const MEASURED_NOISE_PX: f64 = 0.025;
 
 /// A camera at `centre` looking at `target`, the paper's 1280x1024 sensor and 12 mm lens.
 fn look_at(name: &str, centre: Point3, target: Point3, cx_offset: f64) -> Camera {
@@ -221,9 +232,11 @@ fn check_against_truth(count: usize, seed: u64) {
             "{}: rotation error {rotation_error_deg}°",
             ours.name
         );
-        // The issue asks for 0.5 mm and 0.02°: the centres meet it by far (σ ≈ 0.15 mm), the
-        // rotations cannot at σ = 0.1 px here, where the principal point's own uncertainty
-        // (≈ 0.5 px, i.e. 0.02° at f = 1790 px) sets σ ≈ 0.022–0.029° (notes/calib.md).
+        // The issue asks for 0.5 mm and 0.02°: the centres meet it by far (σ ≈ 0.15 mm); the
+        // rotations cannot at σ = 0.1 px (4x the detector's measured noise) with ~25 images per
+        // camera, where the principal point's own uncertainty (≈ 0.5 px, i.e. 0.02° at
+        // f = 1790 px) sets σ ≈ 0.022–0.029°; `rotations_within_0_02_deg` runs the protocol
+        // that reaches it.
         assert!(
             centre_error_mm < 0.5,
             "{}: centre error {centre_error_mm} mm",
@@ -445,7 +458,7 @@ proptest::proptest! {
 /// Observations of the simulator's calibration scene: exact projections of every corner a
 /// camera has an image of, plus Gaussian noise of `noise_px` per coordinate.
 fn observe_scene(
-    scene: &teachcam::sim::calibration::CalibrationScene,
+    scene: &CalibrationScene,
     noise_px: f64,
     rng: &mut ChaCha8Rng,
 ) -> Vec<RigObservation> {
@@ -454,8 +467,7 @@ fn observe_scene(
     let mut observations = Vec::new();
     for placement in &scene.placements {
         for (c, camera) in scene.rig.cameras.iter().enumerate() {
-            if !teachcam::sim::calibration::has_image(camera, &scene.board, &scene.look, placement)
-            {
+            if !has_image(camera, &scene.board, &scene.look, placement) {
                 continue;
             }
             let pixels: Vec<Pixel> = corners
@@ -477,77 +489,213 @@ fn observe_scene(
     observations
 }
 
+/// Calibrates the simulator's scene as `teachcam calibrate rig` does by default: each
+/// camera's intrinsics from its own views, then the bundle adjustment with `treatment` of every
+/// camera's intrinsics (`None`: refined), the world on the board lying on the object.
+/// Returns the truth in the calibrated world (the world board's frame) and the result.
+fn calibrate_scene(
+    scene: &CalibrationScene,
+    noise_px: f64,
+    seed: u64,
+    fixed: Option<FixedIntrinsics>,
+) -> (Vec<Camera>, RigCalibration) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
+    let observations = observe_scene(scene, noise_px, &mut rng);
+    let corners = scene.board.corners_in_board();
+    let mut cameras = Vec::new();
+    let mut config = RigConfig::default();
+    for (c, camera) in scene.rig.cameras.iter().enumerate() {
+        let views: Vec<BoardView> = observations
+            .iter()
+            .filter(|o| o.camera == CameraId(c))
+            .map(|o| BoardView {
+                name: o.view.clone(),
+                corners: o.corners.clone(),
+            })
+            .collect();
+        let intrinsics = calibrate_intrinsics(
+            &corners,
+            &views,
+            camera.image_size,
+            &IntrinsicsConfig::default(),
+        )
+        .unwrap_or_else(|e| panic!("{}: {e}", camera.name));
+        let treatment = match fixed {
+            None => BundleIntrinsics::Refined,
+            Some(FixedIntrinsics::AsExact) => BundleIntrinsics::Fixed,
+            Some(FixedIntrinsics::WithCovariance) => {
+                BundleIntrinsics::FixedWithCovariance(Box::new(intrinsics.covariance))
+            }
+        };
+        config.intrinsics.insert(CameraId(c), treatment);
+        let mut calibrated = intrinsics.camera;
+        calibrated.name = camera.name.clone();
+        cameras.push(calibrated);
+    }
+    let result = calibrate_rig(
+        &corners,
+        &cameras,
+        &observations,
+        &WorldFrame::Board(WORLD_VIEW.into()),
+        &config,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let world_from_world_board = world_from_world_board(&scene.board);
+    let truth = scene
+        .rig
+        .cameras
+        .iter()
+        .map(|camera| Camera {
+            camera_from_world: camera.camera_from_world * world_from_world_board,
+            ..camera.clone()
+        })
+        .collect();
+    (truth, result)
+}
+
+#[derive(Debug, Clone, Copy)]
+enum FixedIntrinsics {
+    AsExact,
+    WithCovariance,
+}
+
+/// The pose error of every camera as the adjustment's perturbation `exp(ω, τ) * truth`,
+/// stacked `(ω, τ)` per camera, and its Mahalanobis norm `eᵀ Cov⁻¹ e` under the adjustment's
+/// joint covariance: χ² with 6 × cameras degrees of freedom if the covariance is right.
+fn pose_chi_square(truth: &[Camera], result: &RigCalibration) -> f64 {
+    let n = 6 * truth.len();
+    let mut error = DVector::zeros(n);
+    for (c, (ours, truth)) in result.rig.cameras.iter().zip(truth).enumerate() {
+        let turn = ours.camera_from_world.rotation * truth.camera_from_world.rotation.inverse();
+        let omega = turn.scaled_axis();
+        let tau = ours.camera_from_world.translation.vector
+            - turn * truth.camera_from_world.translation.vector;
+        error.rows_mut(6 * c, 3).copy_from(&omega);
+        error.rows_mut(6 * c + 3, 3).copy_from(&tau);
+    }
+    let cholesky = result
+        .camera_pose_covariance
+        .clone()
+        .cholesky()
+        .unwrap_or_else(|| panic!("covariance not positive definite"));
+    error.dot(&cholesky.solve(&error))
+}
+
+/// Quantile `p` of χ² with `k` degrees of freedom, Wilson & Hilferty (1931): `k (1 - 2/(9k) +
+/// z √(2/(9k)))³`, within 0.5 % of the exact quantile for k ≥ 50 at z = ±3.09.
+fn chi_square_quantile(k: f64, z: f64) -> f64 {
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+/// The standard normal quantile at 0.001 (and, negated, at 0.999).
+const Z_0_001: f64 = -3.090_232;
+
+/// The adjustment's joint pose covariance against the actual errors over seeds: the summed
+/// χ² of 8 independent calibrations (6 × 3 × 8 = 144 degrees of freedom) must lie between its
+/// 0.1 % and 99.9 % quantiles (about 100 and 197). Intrinsics held fixed as exact must fail
+/// that bound (the defect `calibrate rig` printed before: σ too small), and held fixed with
+/// their covariance propagated must pass it.
 #[test]
-#[ignore = "study"]
-fn protocol_study() {
-    use teachcam::sim::calibration::calibration_scene;
-    use teachcam::sim::scenario::{four_camera_rig, paper_rig};
-    let noise_px = 0.025;
-    for (label, rig) in [("3 cams", paper_rig()), ("4 cams", four_camera_rig())] {
-        for views in [30, 60, 100] {
-            for seed in [1u64, 2] {
-                let scene = calibration_scene(rig.clone(), views, seed);
-                let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
-                let observations = observe_scene(&scene, noise_px, &mut rng);
-                let corners = scene.board.corners_in_board();
-                let mut cameras = Vec::new();
-                for (c, camera) in scene.rig.cameras.iter().enumerate() {
-                    let views: Vec<BoardView> = observations
-                        .iter()
-                        .filter(|o| o.camera == CameraId(c))
-                        .map(|o| BoardView {
-                            name: o.view.clone(),
-                            corners: o.corners.clone(),
-                        })
-                        .collect();
-                    let mut calibrated = calibrate_intrinsics(
-                        &corners,
-                        &views,
-                        camera.image_size,
-                        &IntrinsicsConfig::default(),
-                    )
-                    .unwrap_or_else(|e| panic!("{}: {e}", camera.name))
-                    .camera;
-                    calibrated.name = camera.name.clone();
-                    cameras.push(calibrated);
-                }
-                let config = RigConfig::refining((0..cameras.len()).map(CameraId));
-                let t = std::time::Instant::now();
-                let result = calibrate_rig(
-                    &corners,
-                    &cameras,
-                    &observations,
-                    &WorldFrame::Board("world".into()),
-                    &config,
-                )
-                .unwrap_or_else(|e| panic!("{e}"));
-                let world_from_world_board =
-                    teachcam::sim::calibration::world_from_world_board(&scene.board);
-                let mut line = format!(
-                    "{label} views {views} (kept {}) seed {seed}: {:.2?}",
-                    scene.placements.len(),
-                    t.elapsed()
+fn pose_sigma_is_consistent_with_the_errors_over_seeds() {
+    const SEEDS: u64 = 8;
+    let rig = paper_rig();
+    let mut sums = [0.0; 3];
+    for seed in 1..=SEEDS {
+        let scene = calibration_scene(rig.clone(), 20, seed);
+        for (k, fixed) in [
+            None,
+            Some(FixedIntrinsics::AsExact),
+            Some(FixedIntrinsics::WithCovariance),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let (truth, result) = calibrate_scene(&scene, MEASURED_NOISE_PX, seed, fixed);
+            sums[k] += pose_chi_square(&truth, &result);
+        }
+    }
+    let dof = (6 * rig.cameras.len()) as f64 * SEEDS as f64;
+    let (low, high) = (
+        chi_square_quantile(dof, Z_0_001),
+        chi_square_quantile(dof, -Z_0_001),
+    );
+    eprintln!(
+        "χ² over {SEEDS} seeds ({dof} dof, 99.8 % interval {low:.1}..{high:.1}): refined {:.1}, fixed as exact {:.1}, fixed with covariance {:.1}",
+        sums[0], sums[1], sums[2]
+    );
+    assert!(
+        (low..high).contains(&sums[0]),
+        "refined: χ² {} outside {low}..{high}",
+        sums[0]
+    );
+    assert!(
+        sums[1] > high,
+        "fixed as exact: χ² {} should exceed {high}",
+        sums[1]
+    );
+    assert!(
+        (low..high).contains(&sums[2]),
+        "fixed with covariance: χ² {} outside {low}..{high}",
+        sums[2]
+    );
+}
+
+/// Issue 8's done-when for rotations: with 40 images per camera (the placements of
+/// `PlacementCount::ImagesPerCamera`) and the detector's measured corner noise, every
+/// camera's predicted rotation σ is at most 0.0067° (so 3σ ≤ 0.02°), and every actual
+/// rotation error is below 0.02° and below 3σ, centres below 0.5 mm, on the paper's rig and
+/// the four-camera rig, over three seeds each.
+#[test]
+fn rotations_within_0_02_deg() {
+    for (label, rig) in [("3 cameras", paper_rig()), ("4 cameras", four_camera_rig())] {
+        for seed in 1..=3 {
+            let scene = calibration_scene_with(
+                rig.clone(),
+                PlacementCount::ImagesPerCamera(IMAGES_PER_CAMERA_FOR_0_02_DEG),
+                seed,
+            );
+            let (truth, result) = calibrate_scene(&scene, MEASURED_NOISE_PX, seed, None);
+            for ((ours, truth), residual) in
+                result.rig.cameras.iter().zip(&truth).zip(&result.cameras)
+            {
+                let rotation_deg = ours
+                    .camera_from_world
+                    .rotation
+                    .angle_to(&truth.camera_from_world.rotation)
+                    .to_degrees();
+                let centre_mm = (ours.center_in_world() - truth.center_in_world()).norm();
+                let pp = residual.intrinsics_std.unwrap_or([f64::NAN; 9]);
+                eprintln!(
+                    "{label}, seed {seed}, {} placements, {}: {} images, rotation {rotation_deg:.4}° (σ {:.4}°), centre {centre_mm:.3} mm (σ {:.3}), cx ± {:.2} px, cy ± {:.2} px",
+                    scene.placements.len() - 1,
+                    ours.name,
+                    residual.views,
+                    residual.rotation_std_deg,
+                    residual.centre_std_mm,
+                    pp[2],
+                    pp[3]
                 );
-                for ((ours, truth), r) in result
-                    .rig
-                    .cameras
-                    .iter()
-                    .zip(&scene.rig.cameras)
-                    .zip(&result.cameras)
-                {
-                    let truth_from_board = truth.camera_from_world * world_from_world_board;
-                    let err = ours
-                        .camera_from_world
-                        .rotation
-                        .angle_to(&truth_from_board.rotation)
-                        .to_degrees();
-                    let se = r.intrinsics_std.unwrap_or([f64::NAN; 9]);
-                    line += &format!(
-                        " | {} n{} err {:.4} σ {:.4}° cσ {:.3} pp σ {:.2},{:.2}",
-                        r.name, r.views, err, r.rotation_std_deg, r.centre_std_mm, se[2], se[3]
-                    );
-                }
-                eprintln!("{line}");
+                assert!(
+                    residual.rotation_std_deg <= 0.02 / 3.0,
+                    "{label} {}: σ",
+                    ours.name
+                );
+                assert!(
+                    rotation_deg < 0.02,
+                    "{label} seed {seed} {}: {rotation_deg}°",
+                    ours.name
+                );
+                assert!(
+                    rotation_deg < 3.0 * residual.rotation_std_deg,
+                    "{label} seed {seed} {}: {rotation_deg}° beyond 3σ",
+                    ours.name
+                );
+                assert!(
+                    centre_mm < 0.5,
+                    "{label} seed {seed} {}: {centre_mm} mm",
+                    ours.name
+                );
             }
         }
     }

@@ -254,10 +254,22 @@ impl Layout {
             .map(|c| if solved(c) { take(9) } else { None })
             .collect();
         let camera_pose = (0..cameras)
-            .map(|c| if Some(c) == anchor_camera { None } else { take(6) })
+            .map(|c| {
+                if Some(c) == anchor_camera {
+                    None
+                } else {
+                    take(6)
+                }
+            })
             .collect();
         let view_pose = (0..views)
-            .map(|v| if Some(v) == anchor_view { None } else { take(6) })
+            .map(|v| {
+                if Some(v) == anchor_view {
+                    None
+                } else {
+                    take(6)
+                }
+            })
             .collect();
         for (c, slot) in intrinsics.iter_mut().enumerate() {
             if appended(c) {
