@@ -581,8 +581,9 @@ fn pose_chi_square(truth: &[Camera], result: &RigCalibration) -> f64 {
     error.dot(&cholesky.solve(&error))
 }
 
-/// Quantile `p` of χ² with `k` degrees of freedom, Wilson & Hilferty (1931): `k (1 - 2/(9k) +
-/// z √(2/(9k)))³`, within 0.5 % of the exact quantile for k ≥ 50 at z = ±3.09.
+/// Quantile of χ² with `k` degrees of freedom at the standard normal quantile `z`, Wilson &
+/// Hilferty (1931): `k (1 - 2/(9k) + z √(2/(9k)))³` (at k = 144, z = ±3.09: 97.2 and 202.2,
+/// scipy's exact 97.19 and 202.18).
 fn chi_square_quantile(k: f64, z: f64) -> f64 {
     let a = 2.0 / (9.0 * k);
     k * (1.0 - a + z * a.sqrt()).powi(3)
@@ -593,7 +594,7 @@ const Z_0_001: f64 = -3.090_232;
 
 /// The adjustment's joint pose covariance against the actual errors over seeds: the summed
 /// χ² of 8 independent calibrations (6 × 3 × 8 = 144 degrees of freedom) must lie between its
-/// 0.1 % and 99.9 % quantiles (about 100 and 197). Intrinsics held fixed as exact must fail
+/// 0.1 % and 99.9 % quantiles (97.2 and 202.2; `scipy.stats.chi2.ppf` gives 97.19 and 202.18). Intrinsics held fixed as exact must fail
 /// that bound (the defect `calibrate rig` printed before: σ too small), and held fixed with
 /// their covariance propagated must pass it.
 #[test]
