@@ -703,3 +703,20 @@ fn propagated_covariance(
     let a = &inverse * jtj.view((0, free), (free, fixed));
     Some(inverse * sigma2 + &a * given * a.transpose())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two measurements `y₁ = θ + K`, `y₂ = θ` with `K` held at an estimate of variance `v`:
+    /// `θ̂ = (y₁ - K + y₂) / 2`, so `Var θ̂ = σ²/2 + v/4`.
+    #[test]
+    fn propagated_covariance_matches_the_closed_form() {
+        // Jacobian columns (θ, K): rows (1, 1) and (1, 0).
+        let jtj = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 1.0]);
+        let (sigma2, v) = (0.3, 0.8);
+        let covariance = propagated_covariance(&jtj, 1, sigma2, &DMatrix::from_element(1, 1, v))
+            .unwrap_or_else(|| panic!("singular"));
+        assert!((covariance[(0, 0)] - (sigma2 / 2.0 + v / 4.0)).abs() < 1e-15);
+    }
+}
