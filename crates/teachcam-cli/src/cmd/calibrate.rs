@@ -419,10 +419,13 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
             );
             let mut camera = result.camera;
             camera.name = name.clone();
-            (
-                camera,
-                BundleIntrinsics::FixedWithCovariance(Box::new(result.covariance)),
-            )
+            // A singular fit has no covariance to propagate: then held as exact, and said so.
+            let fixed = if result.covariance.iter().all(|v| v.is_finite()) {
+                BundleIntrinsics::FixedWithCovariance(Box::new(result.covariance))
+            } else {
+                BundleIntrinsics::Fixed
+            };
+            (camera, fixed)
         };
         let treatment = if args.fix_intrinsics || views.len() < MIN_IMAGES_TO_REFINE {
             fixed
