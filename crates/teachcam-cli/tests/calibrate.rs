@@ -25,7 +25,9 @@ fn intrinsics_writes_camera_json_and_yaml() {
         .filter(|k| *k != 10)
         .map(|k| data.join(format!("opencv-stereo-9x6/left{k:02}.jpg")))
         .collect();
-    // A photograph without a board is named and skipped.
+    // A photograph from the stereo pair's other camera, mixed in by mistake, is named an
+    // outlier (its RMS is 3.7x the median); one without a board is named and skipped.
+    images.push(data.join("opencv-stereo-9x6/right02.jpg"));
     images.push(data.join("caliscope-4cam-chessboard-9x6/cam_0_frame_000.jpg"));
     for output in ["left.json", "left.yaml"] {
         let out = dir.path().join(output);
@@ -55,10 +57,12 @@ fn intrinsics_writes_camera_json_and_yaml() {
             stdout.contains("cam_0_frame_000.jpg: skipped: no complete 9x6 chessboard"),
             "{stdout}"
         );
-        assert!(stdout.contains("left02.jpg: rms 1.2"), "{stdout}");
-        assert!(stdout.contains("(outlier)"), "{stdout}");
+        let outliers: Vec<&str> = stdout.lines().filter(|l| l.contains("(outlier)")).collect();
+        assert_eq!(outliers.len(), 1, "{stdout}");
+        assert!(outliers[0].starts_with("right02.jpg: rms"), "{stdout}");
         let camera = teachcam::io::camera_file::read_camera(&out).unwrap();
-        assert!((camera.camera.intrinsics.fx / 536.07 - 1.0).abs() < 1e-3);
+        // The bar against `cv2.calibrateCamera` on the 13 left images (536.07 px).
+        assert!((camera.camera.intrinsics.fx / 536.07 - 1.0).abs() < 5e-3);
         assert_eq!(camera.camera.name, "left");
     }
 }

@@ -15,8 +15,13 @@
 //!    sample images): rows of `cols` corners; walking a row then stepping to the next row turns
 //!    clockwise on screen (y down); the square between corners 0, 1, `cols`, `cols + 1` is dark.
 //! 4. **Sub-pixel**: OpenCV's `cornerSubPix` (Förstner): the corner `q` minimises
-//!    `Σ w(p) (∇I(p) · (p - q))²` over a window, iterated with bilinear resampling. A board
-//!    whose squares are so small that two refined corners slide together is refused.
+//!    `Σ w(p) (∇I(p) · (p - q))²` over a window, iterated with bilinear resampling. Where
+//!    OpenCV's window would take in a neighbouring corner's edges, it is narrowed to under half
+//!    the way there (on OpenCV's own sample photographs this cuts the calibration's RMS
+//!    reprojection error from 0.41 to 0.23 px).
+//! 5. **Checks**: a board whose refined corners slide together is refused, and so is one with
+//!    a corner off the place a homography through its neighbours gives it (a lattice grown
+//!    partly on clutter, or numbered a square off).
 //!
 //! A partial, blurred or absent board is refused with [`ChessboardError`], never guessed.
 
@@ -24,9 +29,11 @@ use std::collections::{BTreeMap, VecDeque};
 
 use image::GrayImage;
 
-use crate::geometry::Pixel;
+use nalgebra::Vector3;
 
-use super::Chessboard;
+use crate::geometry::{Pixel, Point3};
+
+use super::{Chessboard, zhang};
 
 mod subpix;
 
@@ -38,6 +45,11 @@ pub struct CornerConfig {
     /// Half size of the sub-pixel window, pixels (OpenCV's `winSize`); 11, as in OpenCV's
     /// calibration tutorial, searches a 23x23 window.
     pub subpix_half_window_px: usize,
+    /// Narrow a corner's sub-pixel window to under half the way to its nearest neighbouring
+    /// corner where the configured one would reach further; true. False keeps OpenCV's fixed
+    /// window everywhere, which reproduces `cornerSubPix` one to one (and its bias where the
+    /// window takes in other corners: notes/corners.md).
+    pub narrow_subpix_window: bool,
     /// Sub-pixel iterations at most; 30 as in OpenCV's calibration tutorial.
     pub subpix_max_iterations: usize,
     /// Sub-pixel refinement stops when a step is shorter than this, pixels; 0.001 as in
@@ -55,6 +67,7 @@ impl Default for CornerConfig {
     fn default() -> Self {
         Self {
             subpix_half_window_px: 11,
+            narrow_subpix_window: true,
             subpix_max_iterations: 30,
             subpix_epsilon_px: 0.001,
             min_relative_response: 0.04,
@@ -283,7 +296,9 @@ pub fn find_chessboard_corners(
                 continue;
             };
             let refined = refine_grid(&raw, &grid, cols, config);
-            if !stays_on_its_corner(&grid, &refined, cols, &inferred) {
+            if !stays_on_its_corner(&grid, &refined, cols, &inferred)
+                || !fits_its_neighbourhood(&refined, cols)
+            {
                 continue;
             }
             if inferred
@@ -697,6 +712,50 @@ fn stays_on_its_corner(grid: &[Pixel], refined: &[Pixel], cols: usize, inferred:
     })
 }
 
+/// How far, in lattice steps, a refined corner may lie from where a homography through its
+/// neighbours puts it. On the 34 real photographs of `../shared/data/calib` the worst correct
+/// corner lies 0.14 step off (strong lens distortion, 10 px squares); a corner on the wrong
+/// square, on clutter or slid onto a neighbour lies a whole step or more off.
+const MAX_OFF_NEIGHBOURHOOD_STEPS: f64 = 0.3;
+
+/// True when every refined corner agrees with its neighbourhood: a homography fitted to the
+/// other corners within two lattice steps (a plane seen in perspective; lens distortion bends
+/// it little over so short a span) predicts it within [`MAX_OFF_NEIGHBOURHOOD_STEPS`] of the
+/// shortest lattice step there. The last check on a board: a lattice grown partly on clutter
+/// or numbered one square off passes the brightness checks but not this one.
+fn fits_its_neighbourhood(refined: &[Pixel], cols: usize) -> bool {
+    let rows = refined.len() / cols;
+    let at = |r: usize, c: usize| refined[r * cols + c];
+    (0..refined.len()).all(|k| {
+        let (r, c) = (k / cols, k % cols);
+        let (mut lattice, mut pixels) = (Vec::with_capacity(24), Vec::with_capacity(24));
+        for rr in r.saturating_sub(2)..(r + 3).min(rows) {
+            for cc in c.saturating_sub(2)..(c + 3).min(cols) {
+                if (rr, cc) != (r, c) {
+                    lattice.push(Point3::new(cc as f64, rr as f64, 0.0));
+                    pixels.push(at(rr, cc));
+                }
+            }
+        }
+        let Ok(h) = zhang::homography(&lattice, &pixels, k) else {
+            return false;
+        };
+        let map = |i: f64, j: f64| {
+            let p = h * Vector3::new(i, j, 1.0);
+            Pixel::new(p.x / p.z, p.y / p.z)
+        };
+        let (i, j) = (c as f64, r as f64);
+        let predicted = map(i, j);
+        // The local step as the neighbourhood's homography has it, so that a corner off its
+        // place does not change the yardstick it is measured with.
+        let step = [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)]
+            .iter()
+            .map(|(di, dj)| predicted.distance(&map(i + di, j + dj)))
+            .fold(f64::INFINITY, f64::min);
+        predicted.distance(&at(r, c)) <= MAX_OFF_NEIGHBOURHOOD_STEPS * step
+    })
+}
+
 /// An inferred corner stands when refinement moved it less than a quarter of a square from
 /// its prediction and settled on a corner as well defined as its neighbours: a structure
 /// tensor with two strong directions (`λmin / λmax ≥ 0.2`), and `λmin` at least a fifth of
@@ -803,4 +862,56 @@ fn opencv_order(mut grid: Vec<Vec<Pixel>>, plane: &Plane) -> Vec<Pixel> {
         }
     }
     grid.into_iter().flatten().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 9x6 grid seen in strong perspective (one side 1.6x the other), bent by barrel
+    /// distortion of 3 % at its corners: what a real photograph gives.
+    fn perspective_grid() -> Vec<Pixel> {
+        let (cols, rows) = (9, 6);
+        (0..rows * cols)
+            .map(|k| {
+                let (i, j) = ((k % cols) as f64, (k / cols) as f64);
+                let w = 1.0 + 0.07 * i;
+                let (x, y) = ((40.0 * i + 5.0 * j) / w, (30.0 * j - 4.0 * i) / w);
+                let (cx, cy) = (x - 110.0, y - 60.0);
+                let bend = 1.0 - 0.03 * (cx * cx + cy * cy) / (140.0 * 140.0);
+                Pixel::new(320.0 + cx * bend, 240.0 + cy * bend)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_board_in_perspective_fits_its_neighbourhoods() {
+        assert!(fits_its_neighbourhood(&perspective_grid(), 9));
+    }
+
+    /// A corner a third of a step off its place (wrong square, clutter, a slide towards a
+    /// neighbour) is refused wherever it sits; one a tenth of a step off (noise, blur) is not.
+    #[test]
+    fn a_corner_off_its_place_is_refused() {
+        let grid = perspective_grid();
+        for k in [0_usize, 4, 13, 31, 53] {
+            let step = [k.wrapping_sub(9), k + 9, k.wrapping_sub(1), k + 1]
+                .into_iter()
+                .filter(|&n| n < grid.len() && (n / 9 == k / 9 || n % 9 == k % 9))
+                .map(|n| grid[k].distance(&grid[n]))
+                .fold(f64::INFINITY, f64::min);
+            for (share, fits) in [(0.1, true), (0.35, false)] {
+                for (dx, dy) in [(1.0, 0.0), (0.0, 1.0), (-0.6, 0.8)] {
+                    let mut moved = grid.clone();
+                    moved[k] =
+                        Pixel::new(grid[k].x + share * step * dx, grid[k].y + share * step * dy);
+                    assert_eq!(
+                        fits_its_neighbourhood(&moved, 9),
+                        fits,
+                        "corner {k} moved {share} of a step along ({dx}, {dy})"
+                    );
+                }
+            }
+        }
+    }
 }
