@@ -228,10 +228,7 @@ fn rig_from_rendered_photographs_matches_truth() {
         &cameras,
         &observations,
         &WorldFrame::Board("world".into()),
-        &RigConfig {
-            refine_intrinsics: true,
-            ..RigConfig::default()
-        },
+        &RigConfig::refining((0..cameras.len()).map(CameraId)),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     for ((ours, true_camera), residual) in
@@ -260,4 +257,69 @@ fn rig_from_rendered_photographs_matches_truth() {
             ours.name
         );
     }
+}
+
+/// Corner noise of our detector on rendered 1280x1024 views of the paper's rig (the
+/// `calibration` scenario's placements and image formation) against the renderer's exact
+/// corners: the "realistic corner noise" that `calib_rig_sim.rs` adds to projected corners.
+/// The error per coordinate is reported with its spread over images. `calib_rig_sim.rs`
+/// assumes 0.025 px (`MEASURED_NOISE_PX`) when it shows that 40 images per camera bring
+/// every rotation σ to at most 0.0063°; 10 % more noise moves that to 0.0069°, past the
+/// 0.0067° (3σ = 0.02°) goal, so the measured noise must stay below 0.0275 px or the
+/// protocol needs more images.
+#[test]
+fn detector_corner_noise_on_rendered_paper_rig_views() {
+    use rand::SeedableRng;
+    use teachcam::sim::board::render_board;
+    use teachcam::sim::calibration::{calibration_scene, has_image};
+    use teachcam::sim::scenario::paper_rig;
+
+    let scene = calibration_scene(paper_rig(), 8, 21);
+    let config = CornerConfig::default();
+    let mut errors: Vec<f64> = Vec::new();
+    let mut per_image_std: Vec<f64> = Vec::new();
+    let (mut found, mut refused) = (0, 0);
+    for (index, placement) in scene.placements.iter().enumerate().skip(1) {
+        for camera in &scene.rig.cameras {
+            if !has_image(camera, &scene.board, &scene.look, placement) {
+                continue;
+            }
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1000 + index as u64);
+            // The truth is the exact projection; `None` only behind the camera.
+            let view = render_board(
+                camera,
+                &scene.board,
+                &placement.world_from_board,
+                &scene.look,
+                &scene.render,
+                &mut rng,
+            );
+            let Ok(corners) = find_chessboard_corners(&view.image, &scene.board, &config) else {
+                refused += 1;
+                continue;
+            };
+            found += 1;
+            let mut image_errors = Vec::new();
+            for (ours, truth) in corners.iter().zip(&view.corners) {
+                let truth = truth.unwrap_or_else(|| panic!("a corner behind {}", camera.name));
+                image_errors.extend([ours.x - truth.x, ours.y - truth.y]);
+            }
+            let n = image_errors.len() as f64;
+            per_image_std.push((image_errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt());
+            errors.extend(image_errors);
+        }
+    }
+    let n = errors.len() as f64;
+    let mean = errors.iter().sum::<f64>() / n;
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+    per_image_std.sort_by(f64::total_cmp);
+    eprintln!(
+        "corner error per coordinate over {found} images ({refused} refused): mean {mean:.4} px, rms {rms:.4} px; per image rms min {:.4}, median {:.4}, max {:.4} px",
+        per_image_std[0],
+        per_image_std[per_image_std.len() / 2],
+        per_image_std[per_image_std.len() - 1]
+    );
+    assert!(found >= 12, "{found} of {} images found", found + refused);
+    assert!(mean.abs() < 0.01, "corner bias {mean} px");
+    assert!(rms < 0.025 * 1.1, "corner noise {rms} px per coordinate");
 }
