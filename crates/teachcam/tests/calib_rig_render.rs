@@ -162,6 +162,14 @@ fn rig_from_rendered_photographs_matches_truth() {
             }
         }
     }
+    // 21 renders; squares down to 5.5 px along a foreshortened axis. Seeds that look past
+    // their four nearest saddles find two that seeds from them alone refuse (18 found then);
+    // cam1 v1 stays refused (its lattice takes in the sheet's edge).
+    assert!(
+        observations.len() >= 20,
+        "{} of 21 boards found",
+        observations.len()
+    );
     let points = BOARD.corners_in_board();
     let mut cameras = Vec::new();
     for (c, camera) in truth.iter().enumerate() {
