@@ -1,5 +1,6 @@
 //! Line plots as PNG files, for every command that draws (`spectrum`, `smoothing-study`,
-//! reports): panels stacked vertically, each with its own series, axes and legend.
+//! reports): panels stacked vertically, each with its own series, axes and legend (beside the
+//! axes, so that it never hides a line).
 //!
 //! Drawn with `plotters` into a memory buffer (bitmap backend, no system fonts: DejaVu Sans is
 //! bundled, see `assets/DejaVuSans-LICENSE.txt`) and encoded with `image`, then written whole
@@ -50,6 +51,8 @@ pub struct Panel<'a> {
 
 const PANEL_HEIGHT_PX: u32 = 300;
 const WIDTH_PX: u32 = 1000;
+/// The strip right of each panel's axes that holds its legend.
+const LEGEND_WIDTH_PX: u32 = 230;
 
 fn font() -> Result<()> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
@@ -108,6 +111,7 @@ fn draw(
     root.fill(&WHITE)?;
     let areas = root.split_evenly((panels.len().max(1), 1));
     for (panel, area) in panels.iter().zip(areas) {
+        let (area, legend) = area.split_horizontally(WIDTH_PX - LEGEND_WIDTH_PX);
         let points = |s: &Series| -> Vec<(f64, f64)> {
             s.x.iter()
                 .zip(s.y)
@@ -155,19 +159,18 @@ fn draw(
                     .draw()?;
                 for (k, s) in panel.series.iter().enumerate() {
                     let color = colors[k % colors.len()];
-                    chart
-                        .draw_series(LineSeries::new(points(s), color.stroke_width(1)))?
-                        .label(s.label.as_str())
-                        .legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                        });
+                    chart.draw_series(LineSeries::new(points(s), color.stroke_width(1)))?;
+                    let y = 40 + 20 * k as i32;
+                    legend.draw(&PathElement::new(
+                        vec![(4, y), (26, y)],
+                        color.stroke_width(2),
+                    ))?;
+                    legend.draw(&Text::new(
+                        s.label.as_str(),
+                        (32, y - 7),
+                        ("sans-serif", 13),
+                    ))?;
                 }
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 13))
-                    .draw()?;
             }};
         }
         match panel.y_scale {

@@ -182,3 +182,30 @@ fn rig_from_stereo_folders() {
     eprintln!("{stdout}baseline {baseline:.4} mm");
     assert!((baseline / 83.6232 - 1.0).abs() < 0.01);
 }
+
+/// `--refine-intrinsics` (the default, kept for compatibility) and `--fix-intrinsics`
+/// contradict each other: a usage error, before any image is read.
+#[test]
+fn refine_and_fix_intrinsics_together_are_a_usage_error() {
+    let run = teachcam()
+        .args([
+            "calibrate",
+            "rig",
+            "--inner",
+            "9x6",
+            "--square",
+            "25",
+            "--world",
+            "table",
+            "--refine-intrinsics",
+            "--fix-intrinsics",
+            "no-such-folder",
+            "-o",
+            "rig.json",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("--fix-intrinsics"), "{stderr}");
+}

@@ -25,6 +25,14 @@ fn demo_runs_the_pipeline_and_writes_a_self_contained_report() {
     // The bar for the paper's rig (0.1 mm); the noise model puts it near 0.02 mm.
     assert!(summary["raw_tip_error_rms_mm"].as_f64().unwrap() < 0.10);
     assert!(summary["smoothed_tip_error_rms_mm"].as_f64().unwrap() < 0.10);
+    // Each frame's predicted uncertainty tells the size of the actual error (track_pipeline
+    // derives the bounds).
+    let told = summary["predicted_tip_std_rms_mm"].as_f64().unwrap()
+        / summary["raw_tip_error_rms_mm"].as_f64().unwrap();
+    assert!(
+        (0.75..1.33).contains(&told),
+        "tip_std_mm is {told} of the error"
+    );
     assert_eq!(summary["robot_check_passed"], true);
     // Monte Carlo at the paper's 0.15 px: within 10 % of its first-order prediction.
     let (mc, fo) = (

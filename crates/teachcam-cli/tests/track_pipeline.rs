@@ -103,13 +103,30 @@ fn paper_and_occluded_recordings_are_tracked_within_a_tenth_of_a_millimetre() {
             .into_iter()
             .map(|e| e.expect("every frame has a pose"))
             .collect();
-        let (rms, worst) = (rms(&errors), errors.iter().copied().fold(0.0, f64::max));
+        let (rms_mm, worst) = (rms(&errors), errors.iter().copied().fold(0.0, f64::max));
+        // The per-frame uncertainty must tell the size of the error: its RMS over the frames
+        // against the actual RMS error. Triangulation residuals, which set its scale, cannot
+        // see an error along the epipolar lines, so it may fall a little short (measured 0.87–
+        // 0.93 on the paper, occluded and four-camera scenes); from the blobs' noise alone it
+        // was 0.33.
+        let predicted: Vec<f64> = read_trajectory(&dir.path().join("raw.csv"))
+            .unwrap()
+            .samples
+            .iter()
+            .map(|s| s.tip_std_mm.expect("every frame has a tip_std_mm"))
+            .collect();
+        let told = rms(&predicted) / rms_mm;
         println!(
-            "{scenario}: {} frames, tip RMS {rms:.4} mm, worst {worst:.4} mm",
-            errors.len()
+            "{scenario}: {} frames, tip RMS {rms_mm:.4} mm, worst {worst:.4} mm, tip_std_mm RMS {:.4} mm ({told:.2} of the error)",
+            errors.len(),
+            rms(&predicted)
         );
-        assert!(rms <= limit_mm, "{scenario}: tip RMS {rms} mm");
+        assert!(rms_mm <= limit_mm, "{scenario}: tip RMS {rms_mm} mm");
         assert!(worst < 1.0, "{scenario}: a wrong pose ({worst} mm)");
+        assert!(
+            (0.75..1.33).contains(&told),
+            "{scenario}: tip_std_mm is {told} of the error"
+        );
     }
 }
 

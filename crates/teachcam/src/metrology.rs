@@ -301,6 +301,29 @@ pub fn first_order(
     })
 }
 
+/// The pixel error per image coordinate that triangulation residuals show, pooled over
+/// `points`: `σ̂² = Σ n r² / Σ (2n − 3)`, for each point seen in `n ≥ 2` views with RMS
+/// reprojection residual `r` (its `2n` coordinates fit 3 unknowns). Unlike a blob's own
+/// `center_std_px`, which holds its image noise only, it holds everything that moves a centre
+/// off the marker's true projection where the cameras can see it: noise, detector bias,
+/// calibration error. `None` without a redundant view.
+#[must_use]
+pub fn residual_noise_px<'a>(
+    points: impl IntoIterator<Item = &'a crate::triangulate::TriangulatedPoint>,
+) -> Option<f64> {
+    let (squares, freedom) = points
+        .into_iter()
+        .filter(|p| p.views.len() >= 2 && p.residual_px.is_finite())
+        .fold((0.0, 0usize), |(squares, freedom), p| {
+            let n = p.views.len();
+            (
+                squares + n as f64 * p.residual_px * p.residual_px,
+                freedom + 2 * n - 3,
+            )
+        });
+    (freedom > 0).then(|| (squares / freedom as f64).sqrt())
+}
+
 /// One cell of an uncertainty map.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct MapCell {

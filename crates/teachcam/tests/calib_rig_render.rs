@@ -8,13 +8,17 @@
 )]
 
 use image::GrayImage;
-use nalgebra::{Matrix2, Point2, Rotation3, Unit, UnitQuaternion, Vector3};
+use nalgebra::{Rotation3, Unit, UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use teachcam::calib::chessboard::{CornerConfig, find_chessboard_corners};
 use teachcam::calib::intrinsics::{IntrinsicsConfig, calibrate_intrinsics};
 use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig};
 use teachcam::calib::{BoardView, Chessboard};
 use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
 use teachcam::geometry::{CameraId, Pixel, Point3, Pose, Vec3, pose_from_parts};
+use teachcam::sim::board::{BoardLook, render_board};
+use teachcam::sim::render::RenderConfig;
 
 const BOARD: Chessboard = Chessboard {
     inner_cols: 9,
@@ -50,58 +54,26 @@ fn look_at(name: &str, centre: Point3, target: Point3) -> Camera {
     }
 }
 
-/// Board colour at a board point: squares (i, j) over [(i-1) s, i s) x [(j-1) s, j s), dark
-/// when i + j is even (so the square after corner 0 is dark), white paper one square around,
-/// grey beyond.
-fn board_value(bx: f64, by: f64) -> f64 {
-    let s = BOARD.square_mm;
-    let i = (bx / s).floor() as i64 + 1;
-    let j = (by / s).floor() as i64 + 1;
-    if (0..10).contains(&i) && (0..7).contains(&j) && (i + j) % 2 == 0 {
-        0.1
-    } else if (-1..11).contains(&i) && (-1..8).contains(&j) {
-        0.9
-    } else {
-        0.4
-    }
-}
-
-/// Renders what `camera` sees of the board at `world_from_board`: each pixel's ray through the
-/// lens (undistortion at the pixel centre, its Jacobian for 6x6 sub-samples), cut with the
-/// board plane.
+/// What `camera` sees of the board at `world_from_board`, cast through its lens by the
+/// simulator's chessboard renderer: dark squares at 10 %, paper at 90 %, one square of margin,
+/// on a 40 % background, a sharp lens (0.5 px blur) and no noise.
 fn render(camera: &Camera, world_from_board: &Pose) -> GrayImage {
-    let board_from_camera = world_from_board.inverse() * camera.camera_from_world.inverse();
-    let (fx, fy) = (camera.intrinsics.fx, camera.intrinsics.fy);
-    let n = 6;
-    GrayImage::from_fn(SIZE.width, SIZE.height, |x, y| {
-        let centre = Pixel::new(f64::from(x), f64::from(y));
-        let Ok(n0) = camera.undistort(&centre) else {
-            return image::Luma([100]);
-        };
-        let (_, jacobian) = camera.distortion.apply(&n0);
-        // d(normalised)/d(pixel) = J⁻¹ diag(1/fx, 1/fy).
-        let inverse = jacobian.try_inverse().unwrap_or_else(Matrix2::identity)
-            * Matrix2::new(1.0 / fx, 0.0, 0.0, 1.0 / fy);
-        let mut sum = 0.0;
-        for sy in 0..n {
-            for sx in 0..n {
-                let d = nalgebra::Vector2::new(
-                    (f64::from(sx) + 0.5) / f64::from(n) - 0.5,
-                    (f64::from(sy) + 0.5) / f64::from(n) - 0.5,
-                );
-                let m = Point2::from(n0.coords + inverse * d);
-                let origin = board_from_camera.transform_point(&Point3::origin());
-                let direction = board_from_camera.transform_vector(&Vec3::new(m.x, m.y, 1.0));
-                let t = -origin.z / direction.z;
-                sum += if t > 0.0 {
-                    board_value(origin.x + t * direction.x, origin.y + t * direction.y)
-                } else {
-                    0.4
-                };
-            }
-        }
-        image::Luma([(sum / f64::from(n * n) * 255.0).round() as u8])
-    })
+    let background_dn = 0.4 * 255.0;
+    let look = BoardLook {
+        margin_mm: BOARD.square_mm,
+        white_dn: 0.9 * 255.0 - background_dn,
+        black_dn: 0.1 * 255.0 - background_dn,
+        ..BoardLook::default()
+    };
+    let config = RenderConfig {
+        blur_sigma_px: 0.5,
+        background_dn,
+        read_noise_dn: 0.0,
+        shot_noise_dn_per_dn: 0.0,
+        ..RenderConfig::default()
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    render_board(camera, &BOARD, world_from_board, &look, &config, &mut rng).image
 }
 
 #[test]
@@ -137,12 +109,8 @@ fn rig_from_rendered_photographs_matches_truth() {
             pose_from_parts(position - rotation * centre, rotation),
         ));
     }
-    // Squares here are 15–25 px: OpenCV's usual 23x23 sub-pixel window would reach the
-    // neighbouring corners (as it would in OpenCV), so use 11x11, as one would with OpenCV.
-    let config = CornerConfig {
-        subpix_half_window_px: 5,
-        ..CornerConfig::default()
-    };
+    // Squares here are 7–25 px: the finder narrows its sub-pixel windows there by itself.
+    let config = CornerConfig::default();
     let mut observations = Vec::new();
     for (c, camera) in truth.iter().enumerate() {
         for (name, world_from_board) in &placements {
@@ -194,6 +162,14 @@ fn rig_from_rendered_photographs_matches_truth() {
             }
         }
     }
+    // 21 renders; squares down to 5.5 px along a foreshortened axis. Seeds that look past
+    // their four nearest saddles find two that seeds from them alone refuse (18 found then);
+    // cam1 v1 stays refused (its lattice takes in the sheet's edge).
+    assert!(
+        observations.len() >= 20,
+        "{} of 21 boards found",
+        observations.len()
+    );
     let points = BOARD.corners_in_board();
     let mut cameras = Vec::new();
     for (c, camera) in truth.iter().enumerate() {
@@ -228,10 +204,7 @@ fn rig_from_rendered_photographs_matches_truth() {
         &cameras,
         &observations,
         &WorldFrame::Board("world".into()),
-        &RigConfig {
-            refine_intrinsics: true,
-            ..RigConfig::default()
-        },
+        &RigConfig::refining((0..cameras.len()).map(CameraId)),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     for ((ours, true_camera), residual) in
@@ -260,4 +233,69 @@ fn rig_from_rendered_photographs_matches_truth() {
             ours.name
         );
     }
+}
+
+/// Corner noise of our detector on rendered 1280x1024 views of the paper's rig (the
+/// `calibration` scenario's placements and image formation) against the renderer's exact
+/// corners: the "realistic corner noise" that `calib_rig_sim.rs` adds to projected corners.
+/// The error per coordinate is reported with its spread over images. `calib_rig_sim.rs`
+/// assumes 0.025 px (`MEASURED_NOISE_PX`) when it shows that 40 images per camera bring
+/// every rotation σ to at most 0.0063°; 10 % more noise moves that to 0.0069°, past the
+/// 0.0067° (3σ = 0.02°) goal, so the measured noise must stay below 0.0275 px or the
+/// protocol needs more images.
+#[test]
+fn detector_corner_noise_on_rendered_paper_rig_views() {
+    use rand::SeedableRng;
+    use teachcam::sim::board::render_board;
+    use teachcam::sim::calibration::{calibration_scene, has_image};
+    use teachcam::sim::scenario::paper_rig;
+
+    let scene = calibration_scene(paper_rig(), 8, 21);
+    let config = CornerConfig::default();
+    let mut errors: Vec<f64> = Vec::new();
+    let mut per_image_std: Vec<f64> = Vec::new();
+    let (mut found, mut refused) = (0, 0);
+    for (index, placement) in scene.placements.iter().enumerate().skip(1) {
+        for camera in &scene.rig.cameras {
+            if !has_image(camera, &scene.board, &scene.look, placement) {
+                continue;
+            }
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1000 + index as u64);
+            // The truth is the exact projection; `None` only behind the camera.
+            let view = render_board(
+                camera,
+                &scene.board,
+                &placement.world_from_board,
+                &scene.look,
+                &scene.render,
+                &mut rng,
+            );
+            let Ok(corners) = find_chessboard_corners(&view.image, &scene.board, &config) else {
+                refused += 1;
+                continue;
+            };
+            found += 1;
+            let mut image_errors = Vec::new();
+            for (ours, truth) in corners.iter().zip(&view.corners) {
+                let truth = truth.unwrap_or_else(|| panic!("a corner behind {}", camera.name));
+                image_errors.extend([ours.x - truth.x, ours.y - truth.y]);
+            }
+            let n = image_errors.len() as f64;
+            per_image_std.push((image_errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt());
+            errors.extend(image_errors);
+        }
+    }
+    let n = errors.len() as f64;
+    let mean = errors.iter().sum::<f64>() / n;
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+    per_image_std.sort_by(f64::total_cmp);
+    eprintln!(
+        "corner error per coordinate over {found} images ({refused} refused): mean {mean:.4} px, rms {rms:.4} px; per image rms min {:.4}, median {:.4}, max {:.4} px",
+        per_image_std[0],
+        per_image_std[per_image_std.len() / 2],
+        per_image_std[per_image_std.len() - 1]
+    );
+    assert!(found >= 12, "{found} of {} images found", found + refused);
+    assert!(mean.abs() < 0.01, "corner bias {mean} px");
+    assert!(rms < 0.025 * 1.1, "corner noise {rms} px per coordinate");
 }

@@ -60,6 +60,8 @@ struct Summary {
     frames_tracked: usize,
     raw_tip_error_rms_mm: f64,
     raw_tip_error_max_mm: f64,
+    /// RMS over the tracked frames of each frame's own predicted tip uncertainty.
+    predicted_tip_std_rms_mm: f64,
     smoothed_tip_error_rms_mm: Option<f64>,
     monte_carlo_tip_rms_mm: f64,
     first_order_tip_rms_mm: f64,
@@ -126,6 +128,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     timed("detect + track", start);
     let raw = read_trajectory(&raw_path)?;
     let (raw_rms, raw_max, tracked) = tip_errors(&scene.truth, &raw);
+    let predicted: Vec<f64> = raw.samples.iter().filter_map(|s| s.tip_std_mm).collect();
+    let predicted_rms =
+        (predicted.iter().map(|s| s * s).sum::<f64>() / predicted.len().max(1) as f64).sqrt();
 
     // 3. Smooth: zero-phase low-pass at 10 Hz, the paper's choice for painting.
     let start = Instant::now();
@@ -182,6 +187,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         frames_tracked: tracked,
         raw_tip_error_rms_mm: raw_rms,
         raw_tip_error_max_mm: raw_max,
+        predicted_tip_std_rms_mm: predicted_rms,
         smoothed_tip_error_rms_mm: Some(smoothed_rms),
         monte_carlo_tip_rms_mm: mc.uncertainty.tip_rms_mm,
         first_order_tip_rms_mm: fo.tip_rms_mm,
@@ -247,6 +253,10 @@ fn print_summary(s: &Summary, args: &Args) -> anyhow::Result<()> {
     if let Some(smoothed) = s.smoothed_tip_error_rms_mm {
         println!("                low-pass 10 Hz {smoothed:.3} mm RMS");
     }
+    println!(
+        "                each frame's own tip_std_mm predicted {:.3} mm RMS",
+        s.predicted_tip_std_rms_mm
+    );
     println!(
         "  uncertainty   tip {:.3} mm RMS at {} px (Monte Carlo, 10,000 trials; first order {:.3} mm); the paper: {} mm",
         s.monte_carlo_tip_rms_mm,

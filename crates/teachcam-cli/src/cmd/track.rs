@@ -10,7 +10,7 @@ use teachcam::identify::check_identifiable;
 use teachcam::io::recording::{check_recording_against_rig, open_recording, read_frame};
 use teachcam::io::trajectory::write_trajectory;
 use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
-use teachcam::metrology::first_order;
+use teachcam::metrology::{first_order, residual_noise_px};
 use teachcam::track::{FrameTrack, TrackConfig, Tracker};
 use teachcam::trajectory::Trajectory;
 
@@ -23,7 +23,9 @@ use crate::cmd::detect::detect_recording;
 /// across cameras (the paper's trinocular loop), triangulate, identify the tool's markers by
 /// their distances, and register the tool (SVD, scale 1). Writes the contract's trajectory CSV:
 /// one row per frame, pose fields empty where the frame has no pose, plus `tip_std_mm`, the
-/// first-order tip uncertainty of the frame from its blobs' predicted centre noise.
+/// first-order tip uncertainty of the frame: its blobs' predicted centre noise, scaled to the
+/// pixel error the recording's triangulation residuals show (which also holds detector bias and
+/// calibration error).
 ///
 /// Example: `teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --diagnostics diag.csv`
 #[derive(Debug, clap::Args)]
@@ -145,13 +147,25 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
     }
     let tracker = Tracker::new(&rig, &tool, config);
     let (mut trajectory, tracks) = tracker.track_all(&views, recording.fps);
+    let rms = |stds: &[f64]| (stds.iter().map(|s| s * s).sum::<f64>() / stds.len() as f64).sqrt();
+    // The blobs' own σ hold image noise only; the markers' triangulation residuals show the
+    // whole pixel error (on the paper scene 0.0085 px against a predicted 0.0030 px), so the
+    // per-frame σ keep their relative sizes and take the residuals' scale.
+    let predicted_px = rms(&noise.concat());
+    let shown_px = residual_noise_px(
+        tracks
+            .iter()
+            .flat_map(|t| t.labels.values().map(|&p| &t.points[p])),
+    );
+    let scale = match shown_px {
+        Some(shown) if predicted_px > 0.0 => shown / predicted_px,
+        _ => 1.0,
+    };
     for (sample, frame_noise) in trajectory.samples.iter_mut().zip(&noise) {
         let Some(pose) = sample.pose else { continue };
-        let rms = (frame_noise.iter().map(|s| s * s).sum::<f64>()
-            / frame_noise.len().max(1) as f64)
-            .sqrt();
-        if rms > 0.0 {
-            sample.tip_std_mm = first_order(&rig, &tool, &pose.world_from_tool, rms)
+        let frame_px = scale * rms(frame_noise);
+        if frame_px > 0.0 {
+            sample.tip_std_mm = first_order(&rig, &tool, &pose.world_from_tool, frame_px)
                 .ok()
                 .map(|u| u.tip_rms_mm);
         }

@@ -5,7 +5,8 @@
 //!    5 px around each pixel, an X-junction has opposite samples alike and quarter-turn
 //!    samples unlike, `R = Σ|I_n + I_{n+8} - I_{n+4} - I_{n+12}| - Σ|I_n - I_{n+8}|
 //!    - 16 |ring mean - local mean|`; edges and blobs score low. Local maxima are candidates.
-//! 2. **Grid growth**: from a seed whose four nearest candidates form two opposite pairs, walk
+//! 2. **Grid growth**: from a seed whose four nearest candidates form two opposite pairs (or,
+//!    when no board is found so, whose nearer candidates hold two crossing pairs), walk
 //!    the lattice by linear extrapolation, taking the nearest candidate within a fraction of
 //!    the step. A board is found when a fully populated `cols x rows` window exists whose
 //!    squares alternate dark/bright (a photograph of a real board, not a lattice of clutter).
@@ -282,10 +283,18 @@ pub fn find_chessboard_corners(
     let mut largest = 0;
     // First complete lattices only; then a lattice missing one corner (a finger over it, a
     // glint), that corner inferred from its neighbours and kept only if a saddle is there.
-    for max_missing in [0, 1] {
+    // Seeds first take their axes from their four nearest saddles; only when no board is found
+    // that way do they look further out (a strongly foreshortened board).
+    for (seed_axes, max_missing) in [
+        (SeedAxes::Nearest, 0),
+        (SeedAxes::Nearest, 1),
+        (SeedAxes::Crossing, 0),
+        (SeedAxes::Crossing, 1),
+    ] {
         // Seeds in order of response: a real board's corners are the strongest saddles.
         for seed in 0..candidates.len().min(64) {
-            let Some(lattice) = grow_lattice(&candidates, seed, 3 * cols * rows, config) else {
+            let Some(lattice) = grow_lattice(&candidates, seed, seed_axes, 3 * cols * rows, config)
+            else {
                 continue;
             };
             largest = largest.max(lattice.len());
@@ -614,10 +623,23 @@ fn nearest(candidates: &[Candidate], x: f64, y: f64, radius: f64, used: &[bool])
 /// Lattice coordinates `(i, j)` → candidate index.
 type Lattice = BTreeMap<(i32, i32), usize>;
 
+/// How a seed picks the two axes it grows the lattice along.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SeedAxes {
+    /// Its four nearest saddles form two opposite pairs: a lattice node on any board seen
+    /// less than very obliquely.
+    Nearest,
+    /// The nearest saddle with an opposite one, then the nearest with an opposite one that
+    /// crosses it: on a board foreshortened to a third along one axis, the four nearest
+    /// saddles are ±1 and ±2 steps along that axis, and the other axis lies further out.
+    Crossing,
+}
+
 /// Grows the lattice through `seed`; `None` when the seed does not look like a lattice node.
 fn grow_lattice(
     candidates: &[Candidate],
     seed: usize,
+    seed_axes: SeedAxes,
     max_nodes: usize,
     config: &CornerConfig,
 ) -> Option<Lattice> {
@@ -631,30 +653,31 @@ fn grow_lattice(
     if near.len() < 4 {
         return None;
     }
-    near.select_nth_unstable_by(3, |a, b| a.0.total_cmp(&b.0));
-    near.truncate(4);
+    let considered = near.len().min(if seed_axes == SeedAxes::Nearest {
+        4
+    } else {
+        SEED_NEIGHBOURS
+    });
+    near.select_nth_unstable_by(considered - 1, |a, b| a.0.total_cmp(&b.0));
+    near.truncate(considered);
+    near.sort_by(|a, b| a.0.total_cmp(&b.0));
     let d: Vec<(f64, f64)> = near
         .iter()
         .map(|&(_, i)| (candidates[i].x - s.x, candidates[i].y - s.y))
         .collect();
-    // Pair the four neighbours into two opposite pairs: (0, k) and the remaining two.
     let opposite = |a: (f64, f64), b: (f64, f64)| {
         let gap = (a.0 + b.0).hypot(a.1 + b.1);
         gap < config.step_tolerance * a.0.hypot(a.1).max(b.0.hypot(b.1))
     };
-    let mut axes = None;
-    for k in 1..4 {
-        let rest: Vec<usize> = (1..4).filter(|&m| m != k).collect();
-        if opposite(d[0], d[k]) && opposite(d[rest[0]], d[rest[1]]) {
-            axes = Some((d[0], d[rest[0]]));
-            break;
-        }
-    }
-    let (u, v) = axes?;
-    let sine = (u.0 * v.1 - u.1 * v.0) / (u.0.hypot(u.1) * v.0.hypot(v.1));
-    if sine.abs() < 0.5 {
+    let has_opposite = |k: usize| (0..d.len()).any(|m| m != k && opposite(d[k], d[m]));
+    let sine =
+        |u: (f64, f64), v: (f64, f64)| (u.0 * v.1 - u.1 * v.0) / (u.0.hypot(u.1) * v.0.hypot(v.1));
+    if seed_axes == SeedAxes::Nearest && !(0..d.len()).all(has_opposite) {
         return None;
     }
+    let first = (0..d.len()).find(|&k| has_opposite(k))?;
+    let u = d[first];
+    let v = d[(0..d.len()).find(|&k| sine(u, d[k]).abs() >= 0.5 && has_opposite(k))?];
 
     let mut lattice = Lattice::new();
     let mut used = vec![false; candidates.len()];
@@ -704,6 +727,10 @@ fn grow_lattice(
     }
     Some(lattice)
 }
+
+/// Nearest saddles a [`SeedAxes::Crossing`] seed looks among: enough to reach the long axis of
+/// a board foreshortened to a fifth along the other (±1…±5 steps along it come first).
+const SEED_NEIGHBOURS: usize = 12;
 
 /// Renumberings of a lattice tried in turn, as `(along i, along j)`: `(k, 0)` maps node
 /// `(i, j)` to `(i + k j, j)`, `(0, k)` to `(i, j + k i)`. A seed axis on a diagonal makes the

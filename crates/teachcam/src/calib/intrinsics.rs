@@ -167,6 +167,10 @@ pub struct IntrinsicCalibration {
     pub outlier_views: Vec<String>,
     /// One standard error of `fx, fy, cx, cy, k1, k2, p1, p2, k3` (0 for fixed ones).
     pub standard_errors: [f64; 9],
+    /// Their covariance, `σ² (JᵀJ)⁻¹` with the board poses marginalised (zero rows and columns
+    /// for fixed ones; NaN when `JᵀJ` is singular): what a rig calibration holding these
+    /// intrinsics fixed propagates ([`super::rig::BundleIntrinsics::FixedWithCovariance`]).
+    pub covariance: SMatrix<f64, 9, 9>,
     /// Optimiser iterations.
     pub iterations: usize,
     /// False when the optimiser stopped at its iteration limit rather than at a minimum.
@@ -433,24 +437,36 @@ pub fn calibrate_intrinsics(
     } else {
         f64::NAN
     };
-    let mut standard_errors = [0.0; 9];
-    if let Some(covariance) = report.jtj.clone().try_inverse() {
-        for (i, error) in standard_errors.iter_mut().enumerate() {
-            let mut variance = 0.0;
-            for (a, da) in problem.directions.iter().enumerate() {
-                for (b, db) in problem.directions.iter().enumerate() {
-                    variance += da[i] * db[i] * covariance[(a, b)];
+    // Cov(params) = D Cov(directions) Dᵀ, D holding one free direction per column.
+    let mut covariance = SMatrix::<f64, 9, 9>::from_element(f64::NAN);
+    if let Some(inverse) = report.jtj.clone().try_inverse() {
+        for i in 0..9 {
+            for j in 0..9 {
+                let mut value = 0.0;
+                for (a, da) in problem.directions.iter().enumerate() {
+                    for (b, db) in problem.directions.iter().enumerate() {
+                        value += da[i] * db[j] * inverse[(a, b)];
+                    }
                 }
+                covariance[(i, j)] = value * sigma2;
             }
-            *error = (variance.max(0.0) * sigma2).sqrt();
         }
     }
+    let standard_errors: [f64; 9] = std::array::from_fn(|i| {
+        let variance = covariance[(i, i)];
+        if variance.is_nan() {
+            0.0
+        } else {
+            variance.max(0.0).sqrt()
+        }
+    });
     Ok(IntrinsicCalibration {
         camera,
         rms_px,
         views: view_residuals,
         outlier_views,
         standard_errors,
+        covariance,
         iterations: report.iterations,
         converged: report.converged,
     })

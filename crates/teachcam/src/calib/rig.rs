@@ -10,8 +10,15 @@
 //!    §V-A: `world_from_board = I` for it) or one camera. Poses spread from it through the
 //!    graph of cameras and views, breadth first:
 //!    `camera_from_world = camera_from_board * board_from_world` and back.
-//! 3. Bundle adjustment: LM over every camera pose (and optionally intrinsics) and every
-//!    board pose, the world's anchor held fixed (the gauge).
+//! 3. Bundle adjustment: LM over every camera pose (and, per camera, its intrinsics and
+//!    distortion) and every board pose, the world's anchor held fixed (the gauge).
+//! 4. Covariance: `Cov(θ) = σ² (JᵀJ)⁻¹` over the free parameters `θ`, `σ² = Σ r² / (2N - n)`.
+//!    Intrinsics held fixed with a known covariance `Cov_K` add, to first order,
+//!    `A Cov_K Aᵀ` with `A = (J_θᵀJ_θ)⁻¹ J_θᵀJ_K` (the poses' shift when `K` moves); intrinsics
+//!    held fixed without one make every σ conditional on them ([`RigCalibration::conditional_on`]).
+//!    A camera's rotation trades off against its principal point (a turn by `δ` about the
+//!    camera's y axis moves the image like `cx` moving by `f δ`), so refining the intrinsics
+//!    is what makes the rotation σ honest (Hartley & Zisserman 2004, §6.3 and App. 6).
 //!
 //! The world frame set by a board is the board's own: x along its rows of corners, y along
 //! its columns, z = x × y, pointing into the board, away from the cameras that see it
@@ -19,7 +26,7 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector, Matrix3, SMatrix};
 
 use crate::camera::{Camera, Rig};
 use crate::geometry::{CameraId, Pixel, Point3, Pose};
@@ -52,15 +59,52 @@ pub enum WorldFrame {
     Camera(CameraId),
 }
 
+/// Covariance of a camera's `fx, fy, cx, cy, k1, k2, p1, p2, k3` (pixels², unitless²).
+pub type IntrinsicsCovariance = SMatrix<f64, 9, 9>;
+
+/// How the bundle adjustment treats one camera's intrinsics and distortion.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum BundleIntrinsics {
+    /// Held at the camera's values and treated as exact (OpenCV's `CALIB_FIX_INTRINSIC`): every
+    /// pose σ is then conditional on them and too small by their own uncertainty.
+    #[default]
+    Fixed,
+    /// Held at the camera's values; this covariance of theirs is propagated into the pose
+    /// covariance to first order.
+    FixedWithCovariance(Box<IntrinsicsCovariance>),
+    /// Refined with the poses, so the pose σ include the intrinsics' uncertainty.
+    Refined,
+}
+
 /// Options of [`calibrate_rig`].
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RigConfig {
-    /// Refine every camera's `fx, fy, cx, cy, k1, k2, p1, p2, k3` in the bundle adjustment
-    /// too; default false: intrinsics from single-camera calibration are usually better determined
-    /// (OpenCV's `CALIB_FIX_INTRINSIC`, its recommended setting).
-    pub refine_intrinsics: bool,
+    /// Per camera, how the adjustment treats its intrinsics; a camera not listed is
+    /// [`BundleIntrinsics::Fixed`]. Default: none listed, as `cv2.stereoCalibrate` with
+    /// `CALIB_FIX_INTRINSIC` (`teachcam calibrate rig` refines every camera with enough views).
+    pub intrinsics: BTreeMap<CameraId, BundleIntrinsics>,
     /// The optimiser's settings (defaults: [`LmConfig::default`]).
     pub lm: LmConfig,
+}
+
+impl RigConfig {
+    /// Every one of `cameras` refined, the others fixed, default optimiser.
+    #[must_use]
+    pub fn refining(cameras: impl IntoIterator<Item = CameraId>) -> Self {
+        Self {
+            intrinsics: cameras
+                .into_iter()
+                .map(|c| (c, BundleIntrinsics::Refined))
+                .collect(),
+            lm: LmConfig::default(),
+        }
+    }
+
+    fn treatment(&self, camera: usize) -> &BundleIntrinsics {
+        self.intrinsics
+            .get(&CameraId(camera))
+            .unwrap_or(&BundleIntrinsics::Fixed)
+    }
 }
 
 /// Residual of one camera after the bundle adjustment.
@@ -77,6 +121,15 @@ pub struct CameraResidual {
     pub rotation_std_deg: f64,
     /// One standard error of its centre in the world, millimetres: `sqrt(trace Cov(c))`.
     pub centre_std_mm: f64,
+    /// Covariance of its orientation error `ω` (radians², camera frame: the estimate is
+    /// `exp(ω) * R_true`, so `ω = log(R R_trueᵀ)`); zeros for the camera that defines the world.
+    pub rotation_covariance: Matrix3<f64>,
+    /// Covariance of its centre in the world, millimetres².
+    pub centre_covariance: Matrix3<f64>,
+    /// One standard error of `fx, fy, cx, cy, k1, k2, p1, p2, k3` (pixels for the first four):
+    /// the adjustment's when refined, the given covariance's when fixed with one, `None` when
+    /// held fixed as exact.
+    pub intrinsics_std: Option<[f64; 9]>,
 }
 
 /// A calibrated rig.
@@ -90,6 +143,14 @@ pub struct RigCalibration {
     pub rms_px: f64,
     /// Every board placement in the world frame.
     pub world_from_board: BTreeMap<String, Pose>,
+    /// Joint covariance of every camera's pose, 6 rows per camera in input order: the
+    /// orientation `ω` (radians, as [`CameraResidual::rotation_covariance`]) then `τ`
+    /// (millimetres) of the perturbation `exp(ω, τ) * camera_from_world`; zeros for the camera
+    /// that defines the world. Cameras share board poses, so their errors correlate.
+    pub camera_pose_covariance: DMatrix<f64>,
+    /// Cameras whose intrinsics were held fixed as exact: every σ above is conditional on
+    /// them (empty when all were refined or came with a covariance).
+    pub conditional_on: Vec<String>,
     /// Optimiser iterations of the bundle adjustment.
     pub iterations: usize,
     /// False when the adjustment stopped at its iteration limit rather than at a minimum.
@@ -169,6 +230,59 @@ struct Layout {
     /// Per view: offset of its pose (6 columns), unless it is the world's anchor.
     view_pose: Vec<Option<usize>>,
     count: usize,
+}
+
+impl Layout {
+    /// Columns for every camera pose and view pose except the anchors', and for the
+    /// intrinsics of the cameras `solved`; then those of the cameras `appended` (at the end,
+    /// so the solved columns keep their places).
+    fn new(
+        cameras: usize,
+        views: usize,
+        anchor_camera: Option<usize>,
+        anchor_view: Option<usize>,
+        solved: impl Fn(usize) -> bool,
+        appended: impl Fn(usize) -> bool,
+    ) -> Self {
+        let mut count = 0;
+        let mut take = |n: usize| {
+            let offset = count;
+            count += n;
+            Some(offset)
+        };
+        let mut intrinsics: Vec<Option<usize>> = (0..cameras)
+            .map(|c| if solved(c) { take(9) } else { None })
+            .collect();
+        let camera_pose = (0..cameras)
+            .map(|c| {
+                if Some(c) == anchor_camera {
+                    None
+                } else {
+                    take(6)
+                }
+            })
+            .collect();
+        let view_pose = (0..views)
+            .map(|v| {
+                if Some(v) == anchor_view {
+                    None
+                } else {
+                    take(6)
+                }
+            })
+            .collect();
+        for (c, slot) in intrinsics.iter_mut().enumerate() {
+            if appended(c) {
+                *slot = take(9);
+            }
+        }
+        Self {
+            intrinsics,
+            camera_pose,
+            view_pose,
+            count,
+        }
+    }
 }
 
 #[derive(Clone)]
@@ -388,57 +502,28 @@ pub fn calibrate_rig(
         .map(|pose| pose.unwrap_or_else(Pose::identity))
         .collect();
 
-    let mut count = 0;
-    let mut take = |n: usize| {
-        let offset = count;
-        count += n;
-        Some(offset)
-    };
-    let intrinsics = (0..cameras.len())
-        .map(|_| {
-            if config.refine_intrinsics {
-                take(9)
-            } else {
-                None
-            }
+    let refined = |c: usize| matches!(config.treatment(c), BundleIntrinsics::Refined);
+    let layout = Layout::new(
+        cameras.len(),
+        view_names.len(),
+        anchor_camera,
+        anchor_view,
+        refined,
+        |_| false,
+    );
+    let indexed: Vec<(usize, usize, &[Pixel])> = observations
+        .iter()
+        .map(|o| {
+            (
+                o.camera.0,
+                view_index[o.view.as_str()],
+                o.corners.as_slice(),
+            )
         })
         .collect();
-    let camera_pose = (0..cameras.len())
-        .map(|c| {
-            if Some(c) == anchor_camera {
-                None
-            } else {
-                take(6)
-            }
-        })
-        .collect();
-    let view_pose = (0..view_names.len())
-        .map(|v| {
-            if Some(v) == anchor_view {
-                None
-            } else {
-                take(6)
-            }
-        })
-        .collect();
-    let layout = Layout {
-        intrinsics,
-        camera_pose,
-        view_pose,
-        count,
-    };
     let problem = BundleProblem {
         points_in_board,
-        observations: observations
-            .iter()
-            .map(|o| {
-                (
-                    o.camera.0,
-                    view_index[o.view.as_str()],
-                    o.corners.as_slice(),
-                )
-            })
-            .collect(),
+        observations: indexed.clone(),
         layout,
     };
     let start = RigState {
@@ -472,23 +557,69 @@ pub fn calibrate_rig(
     } else {
         f64::NAN
     };
-    let covariance = report.jtj.clone().try_inverse();
-    // Camera centre c = -Rᵀt moves by -Rᵀτ under the left perturbation (ω, τ), so its
-    // covariance is Rᵀ Cov(τ) R, whose trace is that of Cov(τ).
-    let pose_std = |c: usize| -> (f64, f64) {
-        match (&covariance, problem.layout.camera_pose[c]) {
-            (Some(cov), Some(o)) => {
-                let rotation: f64 = (o..o + 3).map(|i| cov[(i, i)]).sum();
-                let centre: f64 = (o + 3..o + 6).map(|i| cov[(i, i)]).sum();
-                (
-                    (rotation.max(0.0) * sigma2).sqrt().to_degrees(),
-                    (centre.max(0.0) * sigma2).sqrt(),
-                )
-            }
-            (None, Some(_)) => (f64::NAN, f64::NAN),
-            (_, None) => (0.0, 0.0),
-        }
+    let given = |c: usize| match config.treatment(c) {
+        BundleIntrinsics::FixedWithCovariance(covariance) => Some(covariance.as_ref()),
+        _ => None,
     };
+    let covariance = if (0..cameras.len()).any(|c| given(c).is_some()) {
+        // The same problem with the given intrinsics' columns appended, for J_θᵀJ_K.
+        let full = BundleProblem {
+            points_in_board,
+            observations: indexed,
+            layout: Layout::new(
+                cameras.len(),
+                view_names.len(),
+                anchor_camera,
+                anchor_view,
+                refined,
+                |c| given(c).is_some(),
+            ),
+        };
+        full.normal_equations(&state).and_then(|equations| {
+            let mut given_covariance = DMatrix::zeros(9 * cameras.len(), 9 * cameras.len());
+            let mut columns = Vec::new();
+            for c in 0..cameras.len() {
+                if let (Some(offset), Some(k)) = (full.layout.intrinsics[c], given(c)) {
+                    let at = columns.len();
+                    columns.extend(offset..offset + 9);
+                    given_covariance.view_mut((at, at), (9, 9)).copy_from(k);
+                }
+            }
+            let given_covariance = given_covariance.view((0, 0), (columns.len(), columns.len()));
+            propagated_covariance(
+                &equations.jtj,
+                problem.layout.count,
+                sigma2,
+                &given_covariance.into_owned(),
+            )
+        })
+    } else {
+        report
+            .jtj
+            .clone()
+            .try_inverse()
+            .map(|inverse| inverse * sigma2)
+    };
+    let mut camera_pose_covariance = DMatrix::zeros(6 * cameras.len(), 6 * cameras.len());
+    for (a, offset_a) in problem.layout.camera_pose.iter().enumerate() {
+        for (b, offset_b) in problem.layout.camera_pose.iter().enumerate() {
+            if let (Some(oa), Some(ob)) = (offset_a, offset_b) {
+                let block = covariance.as_ref().map_or_else(
+                    || DMatrix::from_element(6, 6, f64::NAN),
+                    |cov| cov.view((*oa, *ob), (6, 6)).into_owned(),
+                );
+                camera_pose_covariance
+                    .view_mut((6 * a, 6 * b), (6, 6))
+                    .copy_from(&block);
+            }
+        }
+    }
+    let conditional_on: Vec<String> = cameras
+        .iter()
+        .enumerate()
+        .filter(|(c, _)| matches!(config.treatment(*c), BundleIntrinsics::Fixed))
+        .map(|(_, camera)| camera.name.clone())
+        .collect();
     let mut rig_cameras = Vec::with_capacity(cameras.len());
     let mut residuals = Vec::with_capacity(cameras.len());
     for (c, camera) in cameras.iter().enumerate() {
@@ -512,13 +643,35 @@ pub fn calibrate_rig(
             });
         }
         let views = observations.iter().filter(|o| o.camera.0 == c).count();
-        let (rotation_std_deg, centre_std_mm) = pose_std(c);
+        let block = |row: usize, column: usize| -> Matrix3<f64> {
+            camera_pose_covariance
+                .fixed_view::<3, 3>(6 * c + row, 6 * c + column)
+                .into_owned()
+        };
+        let rotation_covariance = block(0, 0);
+        // The centre `-Rᵀt` moves by `-Rᵀτ` under the perturbation.
+        let rotation = state.camera_from_world[c].rotation.to_rotation_matrix();
+        let centre_covariance = rotation.matrix().transpose() * block(3, 3) * rotation.matrix();
+        let intrinsics_std = match (config.treatment(c), problem.layout.intrinsics[c]) {
+            (BundleIntrinsics::Refined, Some(offset)) => Some(std::array::from_fn(|i| {
+                covariance.as_ref().map_or(f64::NAN, |cov| {
+                    cov[(offset + i, offset + i)].max(0.0).sqrt()
+                })
+            })),
+            (BundleIntrinsics::FixedWithCovariance(k), _) => {
+                Some(std::array::from_fn(|i| k[(i, i)].max(0.0).sqrt()))
+            }
+            _ => None,
+        };
         residuals.push(CameraResidual {
             name: camera.name.clone(),
             rms_px: (sums[c].0 / sums[c].1.max(1) as f64).sqrt(),
             views,
-            rotation_std_deg,
-            centre_std_mm,
+            rotation_std_deg: rotation_covariance.trace().max(0.0).sqrt().to_degrees(),
+            centre_std_mm: centre_covariance.trace().max(0.0).sqrt(),
+            rotation_covariance,
+            centre_covariance,
+            intrinsics_std,
         });
         rig_cameras.push(calibrated);
     }
@@ -529,7 +682,41 @@ pub fn calibrate_rig(
         cameras: residuals,
         rms_px,
         world_from_board: view_names.into_iter().zip(state.world_from_board).collect(),
+        camera_pose_covariance,
+        conditional_on,
         iterations: report.iterations,
         converged: report.converged,
     })
+}
+
+/// Covariance of the first `free` parameters: `σ² H_ff⁻¹ + A Cov_K Aᵀ`, `A = H_ff⁻¹ H_fK`, where
+/// `H = JᵀJ` over the free parameters followed by the fixed intrinsics whose covariance
+/// `Cov_K` is given (least squares moves `θ` by `-A δK` when `K` is off by `δK`).
+fn propagated_covariance(
+    jtj: &DMatrix<f64>,
+    free: usize,
+    sigma2: f64,
+    given: &DMatrix<f64>,
+) -> Option<DMatrix<f64>> {
+    let fixed = jtj.nrows() - free;
+    let inverse = jtj.view((0, 0), (free, free)).into_owned().try_inverse()?;
+    let a = &inverse * jtj.view((0, free), (free, fixed));
+    Some(inverse * sigma2 + &a * given * a.transpose())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two measurements `y₁ = θ + K`, `y₂ = θ` with `K` held at an estimate of variance `v`:
+    /// `θ̂ = (y₁ - K + y₂) / 2`, so `Var θ̂ = σ²/2 + v/4`.
+    #[test]
+    fn propagated_covariance_matches_the_closed_form() {
+        // Jacobian columns (θ, K): rows (1, 1) and (1, 0).
+        let jtj = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 1.0]);
+        let (sigma2, v) = (0.3, 0.8);
+        let covariance = propagated_covariance(&jtj, 1, sigma2, &DMatrix::from_element(1, 1, v))
+            .unwrap_or_else(|| panic!("singular"));
+        assert!((covariance[(0, 0)] - (sigma2 / 2.0 + v / 4.0)).abs() < 1e-15);
+    }
 }
