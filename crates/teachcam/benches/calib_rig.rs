@@ -8,9 +8,8 @@ use std::hint::black_box;
 use std::path::PathBuf;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use teachcam::calib::BoardView;
 use teachcam::calib::intrinsics::{IntrinsicsConfig, calibrate_intrinsics};
-use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig};
+use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig, views_of_camera};
 use teachcam::camera::{Camera, ImageSize};
 use teachcam::geometry::{CameraId, Pixel, Point3};
 use teachcam::sim::calibration::CALIBRATION_BOARD;
@@ -50,14 +49,7 @@ fn observations() -> Vec<RigObservation> {
 fn intrinsics(points: &[Point3], observations: &[RigObservation]) -> Option<Vec<Camera>> {
     (0..CAMERAS)
         .map(|c| {
-            let views: Vec<BoardView> = observations
-                .iter()
-                .filter(|o| o.camera == CameraId(c))
-                .map(|o| BoardView {
-                    name: o.view.clone(),
-                    corners: o.corners.clone(),
-                })
-                .collect();
+            let views = views_of_camera(observations, CameraId(c));
             calibrate_intrinsics(points, &views, SIZE, &IntrinsicsConfig::default())
                 .ok()
                 .map(|result| result.camera)

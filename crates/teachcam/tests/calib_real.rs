@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use serde_json::Value;
 use teachcam::calib::chessboard::{CornerConfig, find_chessboard_corners, gray_like_opencv};
 use teachcam::calib::intrinsics::{IntrinsicCalibration, IntrinsicsConfig, calibrate_intrinsics};
-use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig};
+use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig, views_of_camera};
 use teachcam::calib::{BoardView, Chessboard};
 use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
 use teachcam::geometry::{CameraId, Pixel, Point3, Pose};
@@ -582,14 +582,7 @@ fn stereo_baseline_with_our_corners() {
     let observations = stereo_observations(find, &names);
     let mut cameras = Vec::new();
     for (id, name) in [(0, "left"), (1, "right")] {
-        let views: Vec<BoardView> = observations
-            .iter()
-            .filter(|o| o.camera == CameraId(id))
-            .map(|o| BoardView {
-                name: o.view.clone(),
-                corners: o.corners.clone(),
-            })
-            .collect();
+        let views = views_of_camera(&observations, CameraId(id));
         let mut camera = calibrate(&views, &IntrinsicsConfig::default()).camera;
         camera.name = name.to_owned();
         cameras.push(camera);

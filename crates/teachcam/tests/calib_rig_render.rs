@@ -11,10 +11,10 @@ use image::GrayImage;
 use nalgebra::{Rotation3, Unit, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use teachcam::calib::Chessboard;
 use teachcam::calib::chessboard::{CornerConfig, find_chessboard_corners};
 use teachcam::calib::intrinsics::{IntrinsicsConfig, calibrate_intrinsics};
-use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig};
-use teachcam::calib::{BoardView, Chessboard};
+use teachcam::calib::rig::{RigConfig, RigObservation, WorldFrame, calibrate_rig, views_of_camera};
 use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
 use teachcam::geometry::{CameraId, Pixel, Point3, Pose, Vec3, pose_from_parts};
 use teachcam::sim::board::{BoardLook, render_board};
@@ -173,14 +173,7 @@ fn rig_from_rendered_photographs_matches_truth() {
     let points = BOARD.corners_in_board();
     let mut cameras = Vec::new();
     for (c, camera) in truth.iter().enumerate() {
-        let views: Vec<BoardView> = observations
-            .iter()
-            .filter(|o| o.camera == CameraId(c))
-            .map(|o| BoardView {
-                name: o.view.clone(),
-                corners: o.corners.clone(),
-            })
-            .collect();
+        let views = views_of_camera(&observations, CameraId(c));
         let result = calibrate_intrinsics(&points, &views, SIZE, &IntrinsicsConfig::default())
             .unwrap_or_else(|e| panic!("{}: {e}", camera.name));
         eprintln!(

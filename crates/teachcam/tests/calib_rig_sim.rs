@@ -13,6 +13,7 @@ use rand_distr::{Distribution, Normal};
 use teachcam::calib::intrinsics::{IntrinsicsConfig, calibrate_intrinsics};
 use teachcam::calib::rig::{
     BundleIntrinsics, RigCalibration, RigConfig, RigObservation, WorldFrame, calibrate_rig,
+    views_of_camera,
 };
 use teachcam::calib::{BoardView, CalibError, Chessboard};
 use teachcam::camera::{Camera, Distortion, ImageSize, Intrinsics};
@@ -157,14 +158,7 @@ fn calibrate_simulated(
     let corners = BOARD.corners_in_board();
     let mut cameras = Vec::new();
     for (c, camera) in truth.iter().enumerate() {
-        let views: Vec<BoardView> = observations
-            .iter()
-            .filter(|o| o.camera == CameraId(c))
-            .map(|o| BoardView {
-                name: o.view.clone(),
-                corners: o.corners.clone(),
-            })
-            .collect();
+        let views = views_of_camera(&observations, CameraId(c));
         eprintln!("{}: {} views", camera.name, views.len());
         let mut calibrated =
             calibrate_intrinsics(&corners, &views, SIZE, &IntrinsicsConfig::default())
@@ -505,14 +499,7 @@ fn calibrate_scene(
     let mut cameras = Vec::new();
     let mut config = RigConfig::default();
     for (c, camera) in scene.rig.cameras.iter().enumerate() {
-        let views: Vec<BoardView> = observations
-            .iter()
-            .filter(|o| o.camera == CameraId(c))
-            .map(|o| BoardView {
-                name: o.view.clone(),
-                corners: o.corners.clone(),
-            })
-            .collect();
+        let views = views_of_camera(&observations, CameraId(c));
         let intrinsics = calibrate_intrinsics(
             &corners,
             &views,
@@ -751,14 +738,7 @@ fn matches_opencv_multiview_on_the_same_corners() {
         .iter()
         .enumerate()
         .map(|(c, camera)| {
-            let views: Vec<BoardView> = observations
-                .iter()
-                .filter(|o| o.camera == CameraId(c))
-                .map(|o| BoardView {
-                    name: o.view.clone(),
-                    corners: o.corners.clone(),
-                })
-                .collect();
+            let views = views_of_camera(&observations, CameraId(c));
             let mut calibrated = calibrate_intrinsics(
                 &corners,
                 &views,

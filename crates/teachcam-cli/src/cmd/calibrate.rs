@@ -9,6 +9,7 @@ use teachcam::calib::chessboard::{CornerConfig, find_chessboard_corners, gray_li
 use teachcam::calib::intrinsics::{IntrinsicsConfig, calibrate_intrinsics};
 use teachcam::calib::rig::{
     BundleIntrinsics, RigCalibration, RigConfig, RigObservation, WorldFrame, calibrate_rig,
+    views_of_camera,
 };
 use teachcam::calib::{BoardView, Chessboard};
 use teachcam::camera::{Camera, ImageSize};
@@ -378,7 +379,6 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
             .filter(|p| p.is_file())
             .collect();
         images.sort();
-        let mut views = Vec::new();
         let mut size = None;
         for (path, result) in find_all(&images, &board) {
             match result {
@@ -389,17 +389,14 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
                         .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
                     observations.push(RigObservation {
                         camera: CameraId(c),
-                        view: view.clone(),
-                        corners: found.clone(),
-                    });
-                    views.push(BoardView {
-                        name: view,
+                        view,
                         corners: found,
                     });
                 }
                 Err(message) => println!("{}: skipped: {message}", path.display()),
             }
         }
+        let views = views_of_camera(&observations, CameraId(c));
         let (camera, fixed) = if let Some(file) = known.get(name.as_str()) {
             let mut camera = read_camera(file).rejected()?.camera;
             camera.name = name.clone();

@@ -50,6 +50,20 @@ pub struct RigObservation {
     pub corners: Vec<Pixel>,
 }
 
+/// The views `camera` has among `observations`, named by placement: what its own intrinsic
+/// calibration starts from.
+#[must_use]
+pub fn views_of_camera(observations: &[RigObservation], camera: CameraId) -> Vec<BoardView> {
+    observations
+        .iter()
+        .filter(|o| o.camera == camera)
+        .map(|o| BoardView {
+            name: o.view.clone(),
+            corners: o.corners.clone(),
+        })
+        .collect()
+}
+
 /// What fixes the world frame.
 #[derive(Debug, Clone, PartialEq)]
 pub enum WorldFrame {
