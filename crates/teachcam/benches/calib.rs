@@ -19,7 +19,6 @@ use teachcam::calib::{BoardView, Chessboard};
 use teachcam::camera::ImageSize;
 use teachcam::geometry::Pixel;
 use teachcam::sim::Scenario;
-use teachcam::sim::board::render_board;
 use teachcam::sim::calibration::{WORLD_VIEW, calibration_scene};
 
 const BOARD: Chessboard = Chessboard {
@@ -54,12 +53,9 @@ fn bench_calib(c: &mut Criterion) {
     }
     let scene = calibration_scene(Scenario::Calibration.rig(), 3, 1);
     if let Some(world) = scene.placements.iter().find(|p| p.name == WORLD_VIEW) {
-        let view = render_board(
+        let view = scene.board_view(
             &scene.rig.cameras[0],
-            &scene.board,
-            &world.world_from_board,
-            &scene.look,
-            &scene.render,
+            world,
             &mut ChaCha8Rng::seed_from_u64(1),
         );
         let board = scene.board;

@@ -11,7 +11,6 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use teachcam::sim::Scenario;
-use teachcam::sim::board::render_board;
 use teachcam::sim::calibration::calibration_scene;
 
 fn bench_board(c: &mut Criterion) {
@@ -22,16 +21,7 @@ fn bench_board(c: &mut Criterion) {
     for placement in scene.placements.iter().take(2) {
         group.bench_function(format!("render_1280x1024_{}", placement.name), |b| {
             let mut rng = ChaCha8Rng::seed_from_u64(1);
-            b.iter(|| {
-                render_board(
-                    black_box(camera),
-                    &scene.board,
-                    &placement.world_from_board,
-                    &scene.look,
-                    &scene.render,
-                    &mut rng,
-                )
-            })
+            b.iter(|| scene.board_view(black_box(camera), placement, &mut rng))
         });
     }
     group.finish();

@@ -239,7 +239,6 @@ fn rig_from_rendered_photographs_matches_truth() {
 #[test]
 fn detector_corner_noise_on_rendered_paper_rig_views() {
     use rand::SeedableRng;
-    use teachcam::sim::board::render_board;
     use teachcam::sim::calibration::{calibration_scene, has_image};
     use teachcam::sim::scenario::paper_rig;
 
@@ -255,14 +254,7 @@ fn detector_corner_noise_on_rendered_paper_rig_views() {
             }
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1000 + index as u64);
             // The truth is the exact projection; `None` only behind the camera.
-            let view = render_board(
-                camera,
-                &scene.board,
-                &placement.world_from_board,
-                &scene.look,
-                &scene.render,
-                &mut rng,
-            );
+            let view = scene.board_view(camera, placement, &mut rng);
             let Ok(corners) = find_chessboard_corners(&view.image, &scene.board, &config) else {
                 refused += 1;
                 continue;

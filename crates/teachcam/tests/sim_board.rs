@@ -41,14 +41,7 @@ fn found_corners_match_the_rendered_truth() {
                 continue;
             }
             let mut rng = ChaCha8Rng::seed_from_u64(k as u64);
-            let view = render_board(
-                camera,
-                &scene.board,
-                &placement.world_from_board,
-                &scene.look,
-                &scene.render,
-                &mut rng,
-            );
+            let view = scene.board_view(camera, placement, &mut rng);
             match find_chessboard_corners(&view.image, &scene.board, &CornerConfig::default()) {
                 Ok(corners) => {
                     found += 1;
@@ -96,14 +89,7 @@ fn oblique_views_are_found_on_the_right_corners() {
                 continue;
             }
             let mut rng = ChaCha8Rng::seed_from_u64(k as u64);
-            let view = render_board(
-                camera,
-                &scene.board,
-                &placement.world_from_board,
-                &scene.look,
-                &scene.render,
-                &mut rng,
-            );
+            let view = scene.board_view(camera, placement, &mut rng);
             match find_chessboard_corners(&view.image, &scene.board, &CornerConfig::default()) {
                 Ok(corners) => {
                     found += 1;

@@ -26,11 +26,11 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::board::{BoardLook, render_board};
+use super::board::{BoardImage, BoardLook, render_board};
 use super::render::RenderConfig;
 use super::view_seed;
 use crate::calib::Chessboard;
-use crate::camera::Rig;
+use crate::camera::{Camera, Rig};
 use crate::geometry::{Pose, pose_from_parts, rotation_rows};
 use crate::io::FileError;
 
@@ -66,6 +66,25 @@ pub struct CalibrationScene {
     pub render: RenderConfig,
     /// The world view first, then the held placements.
     pub placements: Vec<Placement>,
+}
+
+impl CalibrationScene {
+    /// What `camera` sees of the board held at `placement`, with its truth.
+    pub fn board_view<R: rand::Rng>(
+        &self,
+        camera: &Camera,
+        placement: &Placement,
+        rng: &mut R,
+    ) -> BoardImage {
+        render_board(
+            camera,
+            &self.board,
+            &placement.world_from_board,
+            &self.look,
+            &self.render,
+            rng,
+        )
+    }
 }
 
 /// Where the world view's board centre lies on the work object, millimetres: 70 mm towards
@@ -317,14 +336,7 @@ pub fn write_calibration(
                     continue;
                 }
                 let mut rng = ChaCha8Rng::seed_from_u64(view_seed(seed, camera_id, index));
-                let view = render_board(
-                    camera,
-                    &scene.board,
-                    &placement.world_from_board,
-                    &scene.look,
-                    &scene.render,
-                    &mut rng,
-                );
+                let view = scene.board_view(camera, placement, &mut rng);
                 let path = out
                     .join(&camera.name)
                     .join(format!("{}.png", placement.name));
