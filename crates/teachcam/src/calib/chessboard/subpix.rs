@@ -81,7 +81,9 @@ fn final_half_window(grid: &[Pixel], cols: usize, k: usize, configured: usize) -
             }
         }
     }
-    ((WINDOW_REACH * nearest).floor() as usize).clamp(2, configured.max(2))
+    ((WINDOW_REACH * nearest).floor() as usize)
+        .max(2)
+        .min(configured)
 }
 
 /// OpenCV's `cornerSubPix` with no dead zone: iterate
