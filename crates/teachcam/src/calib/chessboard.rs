@@ -870,6 +870,24 @@ fn fill_missing(sparse: &[Vec<Option<Pixel>>]) -> Option<(Vec<Vec<Pixel>>, Vec<P
     Some((grid, predicted))
 }
 
+/// Indices of the corners within `reach` rows and columns of corner `k` of a grid of `len`
+/// corners in rows of `cols`, row by row, `k` itself left out: reach 1 gives its eight
+/// neighbours, reach 2 the 5x5 block around it.
+fn grid_neighbours(k: usize, cols: usize, len: usize, reach: usize) -> impl Iterator<Item = usize> {
+    let (r, c) = (k / cols, k % cols);
+    let rows = len / cols;
+    (r.saturating_sub(reach)..(r + reach + 1).min(rows))
+        .flat_map(move |rr| {
+            (c.saturating_sub(reach)..(c + reach + 1).min(cols)).map(move |cc| rr * cols + cc)
+        })
+        .filter(move |&n| n != k)
+}
+
+/// Indices of the corners next to corner `k` along its row and its column (two to four).
+fn edge_neighbours(k: usize, cols: usize, len: usize) -> impl Iterator<Item = usize> {
+    grid_neighbours(k, cols, len, 1).filter(move |&n| n / cols == k / cols || n % cols == k % cols)
+}
+
 /// True when sub-pixel refinement kept every pair of lattice neighbours at least half their
 /// distance apart. Where squares are only a few pixels wide along a foreshortened axis, the
 /// sub-pixel window reaches the neighbouring corner and two corners can slide onto one.
@@ -900,19 +918,11 @@ const MAX_OFF_NEIGHBOURHOOD_STEPS: f64 = 0.3;
 /// shortest lattice step there. The last check on a board: a lattice grown partly on clutter
 /// or numbered one square off passes the brightness checks but not this one.
 fn fits_its_neighbourhood(refined: &[Pixel], cols: usize) -> bool {
-    let rows = refined.len() / cols;
-    let at = |r: usize, c: usize| refined[r * cols + c];
+    let on_lattice = |n: usize| Point3::new((n % cols) as f64, (n / cols) as f64, 0.0);
     (0..refined.len()).all(|k| {
-        let (r, c) = (k / cols, k % cols);
-        let (mut lattice, mut pixels) = (Vec::with_capacity(24), Vec::with_capacity(24));
-        for rr in r.saturating_sub(2)..(r + 3).min(rows) {
-            for cc in c.saturating_sub(2)..(c + 3).min(cols) {
-                if (rr, cc) != (r, c) {
-                    lattice.push(Point3::new(cc as f64, rr as f64, 0.0));
-                    pixels.push(at(rr, cc));
-                }
-            }
-        }
+        let block: Vec<usize> = grid_neighbours(k, cols, refined.len(), 2).collect();
+        let lattice: Vec<Point3> = block.iter().map(|&n| on_lattice(n)).collect();
+        let pixels: Vec<Pixel> = block.iter().map(|&n| refined[n]).collect();
         let Ok(h) = zhang::homography(&lattice, &pixels, k) else {
             return false;
         };
@@ -920,7 +930,7 @@ fn fits_its_neighbourhood(refined: &[Pixel], cols: usize) -> bool {
             let p = h * Vector3::new(i, j, 1.0);
             Pixel::new(p.x / p.z, p.y / p.z)
         };
-        let (i, j) = (c as f64, r as f64);
+        let (i, j) = ((k % cols) as f64, (k / cols) as f64);
         let predicted = map(i, j);
         // The local step as the neighbourhood's homography has it, so that a corner off its
         // place does not change the yardstick it is measured with.
@@ -928,7 +938,7 @@ fn fits_its_neighbourhood(refined: &[Pixel], cols: usize) -> bool {
             .iter()
             .map(|(di, dj)| predicted.distance(&map(i + di, j + dj)))
             .fold(f64::INFINITY, f64::min);
-        predicted.distance(&at(r, c)) <= MAX_OFF_NEIGHBOURHOOD_STEPS * step
+        predicted.distance(&refined[k]) <= MAX_OFF_NEIGHBOURHOOD_STEPS * step
     })
 }
 
@@ -944,9 +954,7 @@ fn confirms_inferred(
     cols: usize,
     k: usize,
 ) -> bool {
-    let (r, c) = (k / cols, k % cols);
-    let rows = refined.len() / cols;
-    let neighbour = if c + 1 < cols { k + 1 } else { k - 1 };
+    let neighbour = if k % cols + 1 < cols { k + 1 } else { k - 1 };
     let square = predicted[k].distance(&predicted[neighbour]);
     let settled = refined[k];
     if !(settled.is_finite() && predicted[k].distance(&settled) <= 0.25 * square) {
@@ -954,16 +962,9 @@ fn confirms_inferred(
     }
     let half = ((square / 4.0).round() as usize).max(2);
     let (lo, hi) = subpix::structure_eigenvalues(plane, settled, half);
-    let mut others: Vec<f64> = [
-        (r.wrapping_sub(1), c),
-        (r + 1, c),
-        (r, c.wrapping_sub(1)),
-        (r, c + 1),
-    ]
-    .iter()
-    .filter(|(rr, cc)| *rr < rows && *cc < cols)
-    .map(|(rr, cc)| subpix::structure_eigenvalues(plane, refined[rr * cols + cc], half).0)
-    .collect();
+    let mut others: Vec<f64> = edge_neighbours(k, cols, refined.len())
+        .map(|n| subpix::structure_eigenvalues(plane, refined[n], half).0)
+        .collect();
     others.sort_by(f64::total_cmp);
     let Some(&median) = others.get(others.len() / 2) else {
         return false;
@@ -1071,9 +1072,7 @@ mod tests {
     fn a_corner_off_its_place_is_refused() {
         let grid = perspective_grid();
         for k in [0_usize, 4, 13, 31, 53] {
-            let step = [k.wrapping_sub(9), k + 9, k.wrapping_sub(1), k + 1]
-                .into_iter()
-                .filter(|&n| n < grid.len() && (n / 9 == k / 9 || n % 9 == k % 9))
+            let step = edge_neighbours(k, 9, grid.len())
                 .map(|n| grid[k].distance(&grid[n]))
                 .fold(f64::INFINITY, f64::min);
             for (share, fits) in [(0.1, true), (0.35, false)] {

@@ -5,7 +5,7 @@
 
 use crate::geometry::Pixel;
 
-use super::{CornerConfig, Plane};
+use super::{CornerConfig, Plane, edge_neighbours, grid_neighbours};
 
 /// Sub-pixel corners: first with a window a quarter of the local square (so that no other
 /// corner falls inside it, as OpenCV refines inside `findChessboardCorners`), then with the
@@ -16,23 +16,13 @@ pub(super) fn refine_grid(
     cols: usize,
     config: &CornerConfig,
 ) -> Vec<Pixel> {
-    let rows = grid.len() / cols;
     let coarse: Vec<Pixel> = grid
         .iter()
         .enumerate()
         .map(|(k, p)| {
-            let (r, c) = (k / cols, k % cols);
-            let mut square = f64::INFINITY;
-            for (rr, cc) in [
-                (r.wrapping_sub(1), c),
-                (r + 1, c),
-                (r, c.wrapping_sub(1)),
-                (r, c + 1),
-            ] {
-                if rr < rows && cc < cols {
-                    square = square.min(p.distance(&grid[rr * cols + cc]));
-                }
-            }
+            let square = edge_neighbours(k, cols, grid.len())
+                .map(|n| p.distance(&grid[n]))
+                .fold(f64::INFINITY, f64::min);
             let coarse_half =
                 ((square / 4.0).round() as usize).clamp(2, config.subpix_half_window_px);
             corner_subpix(plane, *p, coarse_half, config)
@@ -69,18 +59,10 @@ const WINDOW_REACH: f64 = 0.45;
 /// narrowed to [`WINDOW_REACH`] of the Chebyshev distance (the window is square) to the
 /// nearest of its eight neighbours.
 fn final_half_window(grid: &[Pixel], cols: usize, k: usize, configured: usize) -> usize {
-    let rows = grid.len() / cols;
-    let (r, c) = (k / cols, k % cols);
     let p = grid[k];
-    let mut nearest = f64::INFINITY;
-    for rr in r.saturating_sub(1)..(r + 2).min(rows) {
-        for cc in c.saturating_sub(1)..(c + 2).min(cols) {
-            if (rr, cc) != (r, c) {
-                let other = grid[rr * cols + cc];
-                nearest = nearest.min((other.x - p.x).abs().max((other.y - p.y).abs()));
-            }
-        }
-    }
+    let nearest = grid_neighbours(k, cols, grid.len(), 1)
+        .map(|n| (grid[n].x - p.x).abs().max((grid[n].y - p.y).abs()))
+        .fold(f64::INFINITY, f64::min);
     ((WINDOW_REACH * nearest).floor() as usize)
         .max(2)
         .min(configured)
