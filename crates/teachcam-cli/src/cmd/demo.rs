@@ -82,9 +82,8 @@ fn tip_errors(truth: &Trajectory, measured: &Trajectory) -> (f64, f64, usize) {
         .zip(&measured.samples)
         .filter_map(|(t, m)| Some((t.pose?.tip_in_world - m.pose?.tip_in_world).norm()))
         .collect();
-    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     (
-        rms,
+        super::track::rms(&errors),
         errors.iter().copied().fold(0.0, f64::max),
         errors.len(),
     )
@@ -129,8 +128,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let raw = read_trajectory(&raw_path)?;
     let (raw_rms, raw_max, tracked) = tip_errors(&scene.truth, &raw);
     let predicted: Vec<f64> = raw.samples.iter().filter_map(|s| s.tip_std_mm).collect();
-    let predicted_rms =
-        (predicted.iter().map(|s| s * s).sum::<f64>() / predicted.len().max(1) as f64).sqrt();
+    let predicted_rms = super::track::rms(&predicted);
 
     // 3. Smooth: zero-phase low-pass at 10 Hz, the paper's choice for painting.
     let start = Instant::now();

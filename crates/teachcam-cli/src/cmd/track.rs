@@ -147,7 +147,6 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
     }
     let tracker = Tracker::new(&rig, &tool, config);
     let (mut trajectory, tracks) = tracker.track_all(&views, recording.fps);
-    let rms = |stds: &[f64]| (stds.iter().map(|s| s * s).sum::<f64>() / stds.len() as f64).sqrt();
     // The blobs' own σ hold image noise only; the markers' triangulation residuals show the
     // whole pixel error (on the paper scene 0.0085 px against a predicted 0.0030 px), so the
     // per-frame σ keep their relative sizes and take the residuals' scale.
@@ -178,6 +177,11 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
         write_atomically(path, diagnostics_csv(&tracks).as_bytes())?;
     }
     Ok(trajectory)
+}
+
+/// Root mean square of `values`; 0 for none.
+pub(crate) fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt()
 }
 
 fn markers_csv(tracks: &[FrameTrack]) -> String {

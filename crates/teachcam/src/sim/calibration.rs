@@ -124,7 +124,7 @@ pub const MAX_OBLIQUITY_DEG: f64 = 60.0;
 /// [`WORLD_VIEW_BORDER_PX`] inside the image.
 #[must_use]
 pub fn has_image(
-    camera: &crate::camera::Camera,
+    camera: &Camera,
     board: &Chessboard,
     look: &BoardLook,
     placement: &Placement,
