@@ -2,7 +2,8 @@
 //!
 //! Each subcommand lives in `cmd/<name>.rs` as an `Args` struct (its doc comments are the help
 //! text) and a `run` function: parse → resolve files → call the library → write outputs whole.
-//! Exit status: 0 success, 1 input data rejected, 2 usage or internal error.
+//! Exit status: 0 success, 1 input data rejected, 2 usage or internal error, 3 the tool was not
+//! found in any frame (`track`, `import`).
 
 use std::process::ExitCode;
 
@@ -97,6 +98,11 @@ fn main() -> ExitCode {
         Err(error) => {
             eprintln!("error: {error:#}");
             if error
+                .chain()
+                .any(|cause| cause.downcast_ref::<cmd::track::ToolNotFound>().is_some())
+            {
+                ExitCode::from(3)
+            } else if error
                 .chain()
                 .any(|cause| cause.downcast_ref::<DataRejected>().is_some())
             {

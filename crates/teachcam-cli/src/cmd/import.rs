@@ -27,6 +27,9 @@ use crate::{DataRejected, Rejected as _};
 ///   `teachcam import c3d trial.c3d --markers Probe1,Probe2,Probe3 --tool-out probe.json -o traj.csv`
 ///   `teachcam import motive take.csv --tool brush.json -o traj.csv`
 ///   `teachcam import markers markers.csv --fps 30 --markers M0,M1,M2,M3 --tool-out brush.json -o traj.csv`
+///
+/// Found by identification, the tool needs at least one frame with all its markers and no rival
+/// labelling; without one it is not in the data: nothing is written and the exit status is 3.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// File format: c3d, motive (OptiTrack Motive CSV) or qualisys (QTM TSV).
@@ -64,6 +67,9 @@ pub struct Args {
     #[arg(short, long)]
     pub output: PathBuf,
 }
+
+/// Below this fraction of frames with a pose, `import` warns that the tool is rarely found.
+const RARELY_FOUND: f64 = 0.1;
 
 /// Marker file formats `import` reads.
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -164,6 +170,27 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         max_registration_rms_mm: args.max_rms_mm,
     };
     let trajectory = c3d::track_markers(&points, &tool, &selection, &config).map_err(in_file)?;
+    let found = trajectory
+        .samples
+        .iter()
+        .filter(|s| s.pose.is_some())
+        .count();
+    if found == 0 {
+        return Err(anyhow::Error::new(super::track::ToolNotFound(format!(
+            "{}: tool '{}' not found in any of {} frames (no frame holds all its {} markers at its distances); nothing written",
+            args.file.display(),
+            tool.name,
+            trajectory.len(),
+            tool.markers_in_tool.len()
+        ))));
+    }
+    if (found as f64) < RARELY_FOUND * trajectory.len() as f64 {
+        eprintln!(
+            "warning: tool '{}' found in only {found} of {} frames",
+            tool.name,
+            trajectory.len()
+        );
+    }
     write_trajectory(&args.output, &trajectory)?;
     let posed: Vec<f64> = trajectory
         .samples

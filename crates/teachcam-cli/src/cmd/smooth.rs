@@ -61,6 +61,10 @@ pub struct Args {
     /// Tool file giving the tip; without it the tip is recovered from the trajectory.
     #[arg(long)]
     pub tool: Option<PathBuf>,
+    /// Smooth through the poses `track` flagged `outlier` (default: they are gaps, filled like
+    /// any other when short).
+    #[arg(long)]
+    pub keep_outliers: bool,
     /// Output trajectory CSV (written whole or not at all).
     #[arg(short = 'o', long)]
     pub output: PathBuf,
@@ -108,7 +112,10 @@ pub enum Ends {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
-    let trajectory = read_trajectory(&args.input).rejected()?;
+    let mut trajectory = read_trajectory(&args.input).rejected()?;
+    if !args.keep_outliers {
+        trajectory.drop_outliers();
+    }
     let mut config = SmoothConfig {
         max_gap_frames: args.max_gap,
         short_runs: match args.short_runs {
