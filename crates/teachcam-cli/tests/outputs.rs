@@ -100,7 +100,10 @@ fn track_writes_its_three_files_or_none() {
     let diagnostics = dir.path().join("diag.csv");
     let o = track(&diagnostics);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(names(dir.path()), ["diag.csv", "markers.csv", "out.csv", "rec"]);
+    assert_eq!(
+        names(dir.path()),
+        ["diag.csv", "markers.csv", "out.csv", "rec"]
+    );
     let said = stderr(&o);
     assert!(
         said.contains("out.csv") && said.contains("markers.csv") && said.contains("diag.csv"),
@@ -157,7 +160,11 @@ fn export_krl_writes_src_and_dat_or_neither() {
     // A KRL program into a RAPID module's name.
     let o = export(&dir.path().join("stroke.mod"));
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains(".mod names another format"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(".mod names another format"),
+        "{}",
+        stderr(&o)
+    );
     // Both, named on success; --quiet says nothing.
     let o = export(&dir.path().join("stroke.src"));
     assert!(o.status.success(), "{}", stderr(&o));
@@ -196,7 +203,11 @@ fn smooth_refuses_to_overwrite_its_input_and_a_wrong_extension() {
     assert_eq!(std::fs::read(&raw).unwrap(), before);
     let o = teachcam(&["spectrum", s(&raw), "-o", s(&dir.path().join("x.svg"))]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains(".svg names another format"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(".svg names another format"),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(names(dir.path()), ["raw.csv"]);
 }
 

@@ -2,7 +2,10 @@
 //! [`remove_live_temporaries`] removes every temporary of the process, which would race with
 //! other tests writing files in the same process.
 
-#![allow(clippy::unwrap_used, reason = "a test fails on the first unexpected error")]
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test fails on the first unexpected error"
+)]
 
 use std::path::Path;
 
@@ -30,7 +33,11 @@ fn live_temporaries_are_removed_on_request_and_stale_ones_by_the_next_set() {
     assert!(names(dir.path()).is_empty());
     drop(set);
     // A temporary left by a process that is gone (pid 0 names no user process) and its backup.
-    std::fs::write(dir.path().join(".raw.csv.teachcam-tmp-0"), "left by SIGKILL").unwrap();
+    std::fs::write(
+        dir.path().join(".raw.csv.teachcam-tmp-0"),
+        "left by SIGKILL",
+    )
+    .unwrap();
     std::fs::write(dir.path().join(".raw.csv.teachcam-tmp-0.old"), "old").unwrap();
     // Another file whose name only looks alike is kept.
     std::fs::write(dir.path().join("notes.teachcam-tmp-0"), "user's").unwrap();

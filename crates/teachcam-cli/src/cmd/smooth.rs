@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use teachcam::io::tool::read_tool;
-use teachcam::io::{Output, check_outputs};
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
+use teachcam::io::{Output, check_outputs};
 use teachcam::smooth::spline::SplineEnds;
 use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, smooth, suggest_cutoff};
 

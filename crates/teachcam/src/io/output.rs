@@ -144,7 +144,10 @@ impl OutputSet {
     /// The targets staged so far, in the order they were added.
     #[must_use]
     pub fn targets(&self) -> Vec<PathBuf> {
-        lock(&self.staged).iter().map(|s| s.target.clone()).collect()
+        lock(&self.staged)
+            .iter()
+            .map(|s| s.target.clone())
+            .collect()
     }
 
     /// Renames every temporary over its target; returns the targets written, in the order they
@@ -405,7 +408,11 @@ mod tests {
         let set = OutputSet::new();
         set.add(&a, b"new a").unwrap();
         set.add(&b, b"new b").unwrap();
-        assert_eq!(std::fs::read(&a).unwrap(), b"old a", "replaced before commit");
+        assert_eq!(
+            std::fs::read(&a).unwrap(),
+            b"old a",
+            "replaced before commit"
+        );
         assert_eq!(set.commit().unwrap(), vec![a.clone(), b.clone()]);
         assert_eq!(std::fs::read(&a).unwrap(), b"new a");
         assert_eq!(std::fs::read(&b).unwrap(), b"new b");
