@@ -794,9 +794,9 @@ fn isolation(
                 let glints_clear = glints
                     .iter()
                     .all(|g| g.center.distance(&c) > view.radius_px + g.radius_px + gap);
-                let streaks_clear = streaks.iter().all(|s| {
-                    s.distance_px(c.x, c.y) > view.radius_px + 0.5 * s.width_px + gap
-                });
+                let streaks_clear = streaks
+                    .iter()
+                    .all(|s| s.distance_px(c.x, c.y) > view.radius_px + 0.5 * s.width_px + gap);
                 others_clear && glints_clear && streaks_clear
             });
             MarkerView {
@@ -875,7 +875,11 @@ pub fn write_scene(
     if let Some(m) = scene.miscalibration {
         crate::io::rig::write_rig(&out.join("rig_true.json"), &scene.rig)?;
         let axis = m.axis_in_camera.normalize();
-        let camera = scene.rig.cameras.get(m.camera.0).map_or("", |c| c.name.as_str());
+        let camera = scene
+            .rig
+            .cameras
+            .get(m.camera.0)
+            .map_or("", |c| c.name.as_str());
         let text = serde_json::json!({
             "camera": camera,
             "angle_deg": m.angle.to_degrees(),

@@ -148,7 +148,9 @@ fn stereo_ir_blobs_are_small_saturated_and_bloomed() {
                         d * (-d * d / (2.0 * s2)).exp()
                     })
                     .sum::<f64>()
-                    / (0..20).map(|k| 2.5 + 0.1 * (f64::from(k) + 0.5)).sum::<f64>();
+                    / (0..20)
+                        .map(|k| 2.5 + 0.1 * (f64::from(k) + 0.5))
+                        .sum::<f64>();
                 predicted.push(flux / (2.0 * std::f64::consts::PI * s2) * ring_mean);
             }
         }
@@ -261,7 +263,11 @@ fn motion_blur_smears_the_marker_along_its_path() {
         let resting = &render_frame(&still, frame, 1)[0];
         for m in moving.markers.iter().filter(|m| m.isolated) {
             let i = m.marker.0;
-            let path = Vector3::new(ends[1][i].x - ends[0][i].x, ends[1][i].y - ends[0][i].y, 0.0);
+            let path = Vector3::new(
+                ends[1][i].x - ends[0][i].x,
+                ends[1][i].y - ends[0][i].y,
+                0.0,
+            );
             // The n instants sit evenly along `path` (first to last instant), from −1/2 to +1/2
             // of it: a variance of (n + 1)/(12(n − 1))·|path|².
             let length = path.norm();
@@ -393,8 +399,14 @@ fn centroid(image: &GrayImage, near: Pixel, radius_px: f64, background: f64) -> 
     let px = disc(image, near, radius_px);
     let w: f64 = px.iter().map(|p| (p.2 - background).max(0.0)).sum();
     Pixel::new(
-        px.iter().map(|p| p.0 * (p.2 - background).max(0.0)).sum::<f64>() / w,
-        px.iter().map(|p| p.1 * (p.2 - background).max(0.0)).sum::<f64>() / w,
+        px.iter()
+            .map(|p| p.0 * (p.2 - background).max(0.0))
+            .sum::<f64>()
+            / w,
+        px.iter()
+            .map(|p| p.1 * (p.2 - background).max(0.0))
+            .sum::<f64>()
+            / w,
     )
 }
 
@@ -409,7 +421,10 @@ fn unsynced_cameras_expose_at_their_own_offsets() {
         for (id, camera) in scene.rig.iter() {
             let offset = scene.time_offset_s(id);
             let at_own = markers_in_world(&scene.tool, &scene.world_from_tool_at(t + offset));
-            let at_frame = markers_in_world(&scene.tool, &scene.truth.samples[frame].pose.unwrap().world_from_tool);
+            let at_frame = markers_in_world(
+                &scene.tool,
+                &scene.truth.samples[frame].pose.unwrap().world_from_tool,
+            );
             for m in views[id.0].markers.iter().filter(|m| m.isolated) {
                 let own = camera.project(&at_own[m.marker.0]).unwrap();
                 let nominal = camera.project(&at_frame[m.marker.0]).unwrap();
@@ -427,7 +442,10 @@ fn unsynced_cameras_expose_at_their_own_offsets() {
         }
     }
     // The fast stroke moves a marker 2–20 px in 9–13 ms: the offsets are visible.
-    assert!(moved >= 12, "{moved} markers visibly displaced by the offsets");
+    assert!(
+        moved >= 12,
+        "{moved} markers visibly displaced by the offsets"
+    );
 
     let dir = tempfile::tempdir().unwrap();
     let mut short = scene.clone();
@@ -454,9 +472,15 @@ fn stereo_ir_clutter_is_in_the_images() {
             .visible_fraction
     };
     let half = fraction(55, 0, 0);
-    assert!((0.2..0.8).contains(&half), "cam0 marker 0: {half:.2} visible");
+    assert!(
+        (0.2..0.8).contains(&half),
+        "cam0 marker 0: {half:.2} visible"
+    );
     let half = fraction(160, 1, 2);
-    assert!((0.2..0.8).contains(&half), "cam1 marker 2: {half:.2} visible");
+    assert!(
+        (0.2..0.8).contains(&half),
+        "cam1 marker 2: {half:.2} visible"
+    );
     assert!(fraction(235, 1, 1) < 0.05);
     assert!(fraction(100, 1, 1) > 0.999);
 
@@ -487,7 +511,11 @@ fn stereo_ir_clutter_is_in_the_images() {
                         .iter()
                         .map(|q| q.2)
                         .fold(0.0, f64::max);
-                    assert!(peak > 30.0, "ghost at {px:?} in cam{} frame {frame}: {peak}", id.0);
+                    assert!(
+                        peak > 30.0,
+                        "ghost at {px:?} in cam{} frame {frame}: {peak}",
+                        id.0
+                    );
                     ghosts += 1;
                 }
             }
@@ -524,7 +552,10 @@ fn four_cameras_hard_has_touching_marker_images() {
                 .iter()
                 .map(|p| {
                     let d = camera.camera_from_world.transform_point(p).coords.norm();
-                    (camera.project(p).unwrap(), camera.intrinsics.fx * radius / d)
+                    (
+                        camera.project(p).unwrap(),
+                        camera.intrinsics.fx * radius / d,
+                    )
                 })
                 .collect();
             for i in 0..images.len() {

@@ -16,8 +16,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::optics::Streak;
 use super::{
-    GlintPlace, Mirror, Motion, Occluder, STROKE_FRAMES, Scene, StrayGlint, StrayStreak,
-    occlusions,
+    GlintPlace, Mirror, Motion, Occluder, STROKE_FRAMES, Scene, StrayGlint, StrayStreak, occlusions,
 };
 use crate::geometry::{CameraId, MarkerId, Pixel};
 

@@ -260,7 +260,10 @@ pub fn stereo_ir_clutter(
             camera: CameraId(camera),
             streak: Streak {
                 from: Pixel::new(x, y),
-                to: Pixel::new(x + rng.random_range(150.0..300.0), y + rng.random_range(-8.0..8.0)),
+                to: Pixel::new(
+                    x + rng.random_range(150.0..300.0),
+                    y + rng.random_range(-8.0..8.0),
+                ),
                 width_px: rng.random_range(1.5..3.0),
                 radiance_dn: rng.random_range(60.0..160.0),
             },

@@ -255,8 +255,14 @@ pub fn render_exposure<R: Rng>(
     for streak in streaks {
         let half = 0.5 * streak.width_px + 1.0;
         let (lo, hi) = (
-            Pixel::new(streak.from.x.min(streak.to.x), streak.from.y.min(streak.to.y)),
-            Pixel::new(streak.from.x.max(streak.to.x), streak.from.y.max(streak.to.y)),
+            Pixel::new(
+                streak.from.x.min(streak.to.x),
+                streak.from.y.min(streak.to.y),
+            ),
+            Pixel::new(
+                streak.from.x.max(streak.to.x),
+                streak.from.y.max(streak.to.y),
+            ),
         );
         let middle = Pixel::new(0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y));
         let reach = 0.5 * (hi.x - lo.x).max(hi.y - lo.y) + half;
