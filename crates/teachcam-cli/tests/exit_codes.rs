@@ -154,7 +154,11 @@ const TABLE: &[(&str, i32, &[&str])] = &[
         2,
         &["--fps", "finite"],
     ),
-    ("simulate --frames 0 --out @/sim", 2, &["--frames", "at least 1"]),
+    (
+        "simulate --frames 0 --out @/sim",
+        2,
+        &["--frames", "at least 1"],
+    ),
     ("smooth @/raw.csv --cutoff 0 -o @/s.csv", 2, &["--cutoff"]),
     ("smooth @/raw.csv --order 0 -o @/s.csv", 2, &["--order"]),
     (
@@ -168,13 +172,29 @@ const TABLE: &[(&str, i32, &[&str])] = &[
         &["--speed-fraction", "(0, 1]"],
     ),
     ("import c3d @/x.c3d --fps 0 -o @/t.csv", 2, &["--fps"]),
-    ("detect @/rec --min-roundness 2 -o @/d.csv", 2, &["--min-roundness"]),
+    (
+        "detect @/rec --min-roundness 2 -o @/d.csv",
+        2,
+        &["--min-roundness"],
+    ),
     ("export nope @/raw.csv -o @/x.mod", 2, &["nope"]),
     ("track @/rec --rig @/rig.json", 2, &["--tool", "--output"]),
     // Output paths: usage, 2.
-    ("smooth @/raw.csv -o @/raw.csv", 2, &["raw.csv", "also an input"]),
-    ("smooth @/raw.csv -o @/nodir/s.csv", 2, &["nodir", "does not exist"]),
-    ("spectrum @/raw.csv -o @/x.svg", 2, &[".svg", "another format"]),
+    (
+        "smooth @/raw.csv -o @/raw.csv",
+        2,
+        &["raw.csv", "also an input"],
+    ),
+    (
+        "smooth @/raw.csv -o @/nodir/s.csv",
+        2,
+        &["nodir", "does not exist"],
+    ),
+    (
+        "spectrum @/raw.csv -o @/x.svg",
+        2,
+        &[".svg", "another format"],
+    ),
     (
         "export krl @/raw.csv -o @/stroke.mod",
         2,
