@@ -52,16 +52,16 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Write only the first N frames of the scenario.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::count)]
     pub frames: Option<usize>,
     /// Calibration scenarios: board placements held around the working volume, besides the
     /// one on the work object (instead of `--images-per-camera`).
-    #[arg(long, conflicts_with = "images_per_camera")]
+    #[arg(long, conflicts_with = "images_per_camera", value_parser = crate::flags::count)]
     pub views: Option<usize>,
     /// Calibration scenarios: hold the board until every camera has this many images. The
     /// default, 40, brings every camera's rotation σ to about 0.006° on the simulated rigs
     /// (3σ within 0.02°; about 63 placements for the paper's rig, 93 for four cameras).
-    #[arg(long, default_value_t = IMAGES_PER_CAMERA_FOR_0_02_DEG)]
+    #[arg(long, default_value_t = IMAGES_PER_CAMERA_FOR_0_02_DEG, value_parser = crate::flags::count)]
     pub images_per_camera: usize,
 }
 
