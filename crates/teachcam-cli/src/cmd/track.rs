@@ -10,8 +10,8 @@ use teachcam::identify::{IdentifyConfig, check_identifiable};
 use teachcam::io::recording::{
     CameraFrames, Recording, check_recording_against_rig, open_recording, read_frame,
 };
-use teachcam::io::trajectory::write_trajectory;
-use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::io::trajectory::trajectory_text;
+use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
 use teachcam::track::gates::{
     GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
@@ -90,10 +90,10 @@ pub struct Args {
     #[arg(long)]
     pub threshold: Option<u32>,
     /// Nearest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
     pub near: f64,
     /// Farthest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 3000.0)]
+    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
     pub far: f64,
     /// Gates fixed by hand (default: measured from the recording).
     #[command(flatten)]
@@ -104,49 +104,33 @@ pub struct Args {
 #[derive(Debug, Clone, Copy, Default, clap::Args)]
 pub struct GateFlags {
     /// Smallest blob roundness kept, 0..1 (1 = disc; two touching equal discs score 0.5).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::unit_interval)]
     pub min_roundness: Option<f64>,
     /// Largest distance of a blob from an epipolar line, pixels (every camera pair).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub epipolar_tolerance: Option<f64>,
     /// Largest RMS triangulation residual of a marker, pixels.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub max_residual_px: Option<f64>,
     /// Tolerance on marker distances for identification, millimetres.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub distance_tolerance: Option<f64>,
     /// Largest registration RMS of an `ok` pose, millimetres (up to 3 times it: `outlier`).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub max_registration_rms: Option<f64>,
 }
 
 impl GateFlags {
-    /// The overrides, each checked to be a positive finite number (roundness within 0..1).
-    ///
-    /// # Errors
-    /// A usage error naming the flag.
-    pub fn overrides(&self) -> anyhow::Result<GateOverrides> {
-        let positive = |name: &str, v: Option<f64>| -> anyhow::Result<Option<f64>> {
-            match v {
-                Some(x) if !(x.is_finite() && x > 0.0) => {
-                    anyhow::bail!("--{name} must be a positive number, got {x}")
-                }
-                _ => Ok(v),
-            }
-        };
-        if let Some(r) = self.min_roundness {
-            anyhow::ensure!(
-                r.is_finite() && (0.0..=1.0).contains(&r),
-                "--min-roundness must be within 0..1, got {r}"
-            );
-        }
-        Ok(GateOverrides {
+    /// The gates these flags fix (clap has checked their values).
+    #[must_use]
+    pub fn overrides(&self) -> GateOverrides {
+        GateOverrides {
             min_roundness: self.min_roundness,
-            epipolar_tolerance_px: positive("epipolar-tolerance", self.epipolar_tolerance)?,
-            max_residual_px: positive("max-residual-px", self.max_residual_px)?,
-            distance_tolerance_mm: positive("distance-tolerance", self.distance_tolerance)?,
-            max_registration_rms_mm: positive("max-registration-rms", self.max_registration_rms)?,
-        })
+            epipolar_tolerance_px: self.epipolar_tolerance,
+            max_residual_px: self.max_residual_px,
+            distance_tolerance_mm: self.distance_tolerance,
+            max_registration_rms_mm: self.max_registration_rms,
+        }
     }
 }
 
@@ -164,7 +148,8 @@ impl std::error::Error for ToolNotFound {}
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let trajectory = &track_to_files(args)?;
+    let (trajectory, written) = track_to_files(args)?;
+    let trajectory = &trajectory;
     let count = |status: Status| {
         trajectory
             .samples
@@ -177,14 +162,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .iter()
         .filter(|s| s.pose.is_some())
         .count();
-    eprintln!(
-        "{posed} of {} frames tracked ({} ok, {} degraded, {} outlier, {} lost) -> {}",
-        trajectory.len(),
-        count(Status::Ok),
-        count(Status::Degraded),
-        count(Status::Outlier),
-        count(Status::Lost),
-        args.output.display()
+    crate::announce::wrote(
+        &written,
+        &format!(
+            "{posed} of {} frames tracked ({} ok, {} degraded, {} outlier, {} lost)",
+            trajectory.len(),
+            count(Status::Ok),
+            count(Status::Degraded),
+            count(Status::Outlier),
+            count(Status::Lost),
+        ),
     );
     if (posed as f64) < DOCTOR_BELOW * trajectory.len() as f64 {
         eprintln!(
@@ -252,10 +239,21 @@ pub fn gates_path(diagnostics: &Path) -> PathBuf {
     diagnostics.with_file_name(format!("{stem}.gates.json"))
 }
 
-/// Detects, measures the gates, tracks and writes the trajectory (and the optional files);
-/// prints the gates on stderr and nothing else but a progress bar on a terminal.
-pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
-    let overrides = args.gates.overrides()?;
+/// Detects, measures the gates, tracks and writes the trajectory and the optional files, all
+/// or none; returns the trajectory and the files written. Prints the gates on stderr and
+/// nothing else but a progress bar on a terminal.
+pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)> {
+    let gates_json = args.diagnostics.as_deref().map(gates_path);
+    let mut outputs = vec![Output::csv(&args.output)];
+    outputs.extend(args.markers_out.as_deref().map(Output::csv));
+    outputs.extend(args.diagnostics.as_deref().map(Output::csv));
+    outputs.extend(gates_json.as_deref().map(|path| Output {
+        path,
+        format: "JSON",
+        extensions: &["json"],
+    }));
+    check_outputs(&outputs, &[&args.rig, &args.tool])?;
+    let overrides = args.gates.overrides();
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
     if let Some(tolerance) = overrides.distance_tolerance_mm {
@@ -268,11 +266,12 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
         .with_context(|| format!("{}", args.tool.display()))
         .rejected()?;
     }
-    if !(args.near > 0.0 && args.near < args.far) {
-        return Err(anyhow::anyhow!(
-            "--near and --far must satisfy 0 < near < far"
-        ))
-        .rejected();
+    if args.near >= args.far {
+        anyhow::bail!(
+            "--near {} and --far {}: near must be less than far",
+            args.near,
+            args.far
+        );
     }
     let mut recording = open_recording(&args.recording, args.fps).rejected()?;
     check_recording_against_rig(&recording, &rig).rejected()?;
@@ -356,16 +355,23 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
     {
         sample.tip_std_mm = std;
     }
-    write_trajectory(&args.output, &trajectory)?;
+    let outputs = OutputSet::new();
+    outputs.add(
+        &args.output,
+        trajectory_text(&args.output, &trajectory)?.as_bytes(),
+    )?;
     if let Some(path) = &args.markers_out {
-        write_atomically(path, markers_csv(&tracks).as_bytes())?;
+        outputs.add(path, markers_csv(&tracks).as_bytes())?;
     }
     if let Some(path) = &args.diagnostics {
-        write_atomically(path, diagnostics_csv(&tracks).as_bytes())?;
-        let json = serde_json::to_string_pretty(&gates).context("gates as JSON")?;
-        write_atomically(&gates_path(path), json.as_bytes())?;
+        outputs.add(path, diagnostics_csv(&tracks).as_bytes())?;
     }
-    Ok(trajectory)
+    if let Some(path) = &gates_json {
+        let json = serde_json::to_string_pretty(&gates).context("gates as JSON")?;
+        outputs.add(path, json.as_bytes())?;
+    }
+    let written = outputs.commit()?;
+    Ok((trajectory, written))
 }
 
 /// "tool 'x' not found in any of N frames", with the most common reasons.

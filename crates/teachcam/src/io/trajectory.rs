@@ -37,8 +37,16 @@ const CSV_QUATERNION_TOLERANCE: f64 = 1e-5;
 /// [`FileError::Invalid`] naming the first frame and field that is not finite (nothing is
 /// written then); [`FileError::Write`].
 pub fn write_trajectory(path: &Path, trajectory: &Trajectory) -> Result<(), FileError> {
+    write_atomically(path, trajectory_text(path, trajectory)?.as_bytes())
+}
+
+/// The CSV text of a trajectory for `path`, after checking that every number in it is finite.
+///
+/// # Errors
+/// [`FileError::Invalid`] naming `path`, the first frame and field that is not finite.
+pub fn trajectory_text(path: &Path, trajectory: &Trajectory) -> Result<String, FileError> {
     check_finite(trajectory).map_err(|reason| FileError::invalid(path, reason))?;
-    write_atomically(path, trajectory_csv(trajectory).as_bytes())
+    Ok(trajectory_csv(trajectory))
 }
 
 /// The first field of a trajectory that is not finite, as a message naming the frame.
