@@ -81,7 +81,7 @@ pub struct Args {
     #[arg(long)]
     pub diagnostics: Option<PathBuf>,
     /// Frames per second (overrides recording.json; default 30).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::fps)]
     pub fps: Option<f64>,
     /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
     #[arg(long, default_value = "refined")]
