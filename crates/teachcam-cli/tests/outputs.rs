@@ -102,7 +102,13 @@ fn track_writes_its_four_files_or_none() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         names(dir.path()),
-        ["diag.csv", "diag.gates.json", "markers.csv", "out.csv", "rec"]
+        [
+            "diag.csv",
+            "diag.gates.json",
+            "markers.csv",
+            "out.csv",
+            "rec"
+        ]
     );
     let said = stderr(&o);
     assert!(
