@@ -26,9 +26,14 @@ fn path(p: &Path) -> &str {
 /// Runs `args`, expects exit 1 with one line on stderr holding every one of `needles`, and no
 /// output file at `output`.
 fn assert_refused(args: &[&str], output: &Path, needles: &[&str]) -> String {
+    assert_refused_with(1, args, output, needles)
+}
+
+/// As [`assert_refused`] with exit code `code`.
+fn assert_refused_with(code: i32, args: &[&str], output: &Path, needles: &[&str]) -> String {
     let o = teachcam(args);
     let message = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{args:?}: {message}");
+    assert_eq!(o.status.code(), Some(code), "{args:?}: {message}");
     assert_eq!(message.trim_end().lines().count(), 1, "{args:?}: {message}");
     for needle in needles {
         assert!(
@@ -133,8 +138,9 @@ fn r6_tiny_time_steps_and_absurd_frame_rates_are_refused_naming_the_range() {
     };
     let rig = rec.join("rig.json");
     let tool = rec.join("tool.json");
-    // Before: time_s all 0.000000 at --fps 1e7, exit 0.
-    assert_refused(
+    // Before: time_s all 0.000000 at --fps 1e7, exit 0. A flag's value: a usage error.
+    assert_refused_with(
+        2,
         &[
             "track",
             path(&rec),
@@ -148,7 +154,7 @@ fn r6_tiny_time_steps_and_absurd_frame_rates_are_refused_naming_the_range() {
             path(&out),
         ],
         &out,
-        &["--fps = 10000000 Hz", "0.001..=100000 Hz"],
+        &["--fps", "10000000 Hz", "0.001..=100000 Hz"],
     );
     // recording.json {"fps": 1e-320}: before, time_s = inf.
     let copy = tmp.path().join("rec");

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use teachcam::io::tool::read_tool;
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
+use teachcam::io::{Output, check_outputs};
 use teachcam::smooth::spline::SplineEnds;
 use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, smooth, suggest_cutoff};
 use teachcam::trajectory::PoseSource;
@@ -34,10 +35,10 @@ pub struct Args {
     pub method: MethodName,
     /// Low-pass cut-off in Hz, or `auto`: residual analysis of x, y, z picks the cut-off of least
     /// estimated error against the motion (printed on stderr).
-    #[arg(long, default_value = "10")]
+    #[arg(long, default_value = "10", value_parser = crate::flags::cutoff)]
     pub cutoff: String,
     /// Low-pass order (of each of the two passes).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = crate::flags::count)]
     pub order: usize,
     /// What the cut-off means: `single-pass` (scipy's) or `winter` (the two-pass -3 dB point).
     #[arg(long, value_enum, default_value_t = Convention::SinglePass)]
@@ -46,13 +47,13 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Ends::NotAKnot)]
     pub ends: Ends,
     /// NURBS degree.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = crate::flags::count)]
     pub degree: usize,
     /// NURBS knot spacing, seconds.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = crate::flags::positive)]
     pub knot_spacing: f64,
     /// Largest Bezier run, samples (the cost grows as its cube).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = 2000, value_parser = crate::flags::count)]
     pub max_bezier_points: usize,
     /// Fill gaps of at most this many frames; longer gaps stay gaps.
     #[arg(long, default_value_t = 10)]
@@ -112,6 +113,9 @@ pub enum Ends {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
+    let mut inputs = vec![args.input.as_path()];
+    inputs.extend(args.tool.as_deref());
+    check_outputs(&[Output::csv(&args.output)], &inputs)?;
     let trajectory = read_trajectory(&args.input).rejected()?;
     let mut config = SmoothConfig {
         max_gap_frames: args.max_gap,
@@ -178,11 +182,13 @@ pub fn run(args: &Args) -> Result<()> {
         .iter()
         .filter(|s| s.pose.is_some() && s.source == PoseSource::Filled)
         .count();
-    eprintln!(
-        "wrote {}: {} frames, {poses} with a pose ({filled} filled), {} gaps",
-        args.output.display(),
-        smoothed.len(),
-        smoothed.len() - poses
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!(
+            "{} frames, {poses} with a pose ({filled} filled), {} gaps",
+            smoothed.len(),
+            smoothed.len() - poses
+        ),
     );
     Ok(())
 }

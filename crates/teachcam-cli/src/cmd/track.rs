@@ -8,8 +8,8 @@ use teachcam::correspond::Views;
 use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
 use teachcam::identify::check_identifiable;
 use teachcam::io::recording::{check_recording_against_rig, open_recording, read_frame};
-use teachcam::io::trajectory::write_trajectory;
-use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::io::trajectory::trajectory_csv;
+use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
 use teachcam::metrology::{first_order, residual_noise_px};
 use teachcam::track::{FrameTrack, TrackConfig, Tracker};
 use teachcam::trajectory::Trajectory;
@@ -49,7 +49,7 @@ pub struct Args {
     #[arg(long)]
     pub diagnostics: Option<PathBuf>,
     /// Frames per second (overrides recording.json; default 30).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::fps)]
     pub fps: Option<f64>,
     /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
     #[arg(long, default_value = "refined")]
@@ -58,38 +58,41 @@ pub struct Args {
     #[arg(long)]
     pub threshold: Option<u32>,
     /// Nearest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
     pub near: f64,
     /// Farthest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 3000.0)]
+    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
     pub far: f64,
     /// Largest distance of a blob from an epipolar line, pixels.
-    #[arg(long, default_value_t = TrackConfig::default().correspond.epipolar_tolerance_px)]
+    #[arg(long, default_value_t = TrackConfig::default().correspond.epipolar_tolerance_px, value_parser = crate::flags::positive)]
     pub epipolar_tolerance: f64,
     /// Tolerance on marker distances for identification, millimetres.
-    #[arg(long, default_value_t = TrackConfig::default().identify.distance_tolerance_mm)]
+    #[arg(long, default_value_t = TrackConfig::default().identify.distance_tolerance_mm, value_parser = crate::flags::positive)]
     pub distance_tolerance: f64,
 }
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let trajectory = track_to_files(args)?;
+    let (trajectory, written) = track_to_files(args)?;
     let tracked = trajectory
         .samples
         .iter()
         .filter(|s| s.pose.is_some())
         .count();
-    eprintln!(
-        "{tracked} of {} frames tracked -> {}",
-        trajectory.len(),
-        args.output.display()
+    crate::announce::wrote(
+        &written,
+        &format!("{tracked} of {} frames tracked", trajectory.len()),
     );
     Ok(())
 }
 
-/// Detects, tracks and writes the trajectory (and the optional files); prints nothing but a
-/// progress bar on a terminal.
-pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
+/// Detects, tracks and writes the trajectory and the optional files, all or none; returns the
+/// trajectory and the files written. Prints nothing but a progress bar on a terminal.
+pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)> {
+    let mut outputs = vec![Output::csv(&args.output)];
+    outputs.extend(args.markers_out.as_deref().map(Output::csv));
+    outputs.extend(args.diagnostics.as_deref().map(Output::csv));
+    check_outputs(&outputs, &[&args.rig, &args.tool])?;
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
     let mut config = TrackConfig::default();
@@ -98,11 +101,12 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
     check_identifiable(&tool, &config.identify)
         .with_context(|| format!("{}", args.tool.display()))
         .rejected()?;
-    if !(args.near > 0.0 && args.near < args.far) {
-        return Err(anyhow::anyhow!(
-            "--near and --far must satisfy 0 < near < far"
-        ))
-        .rejected();
+    if args.near >= args.far {
+        anyhow::bail!(
+            "--near {} and --far {}: near must be less than far",
+            args.near,
+            args.far
+        );
     }
     let mut recording = open_recording(&args.recording, args.fps).rejected()?;
     check_recording_against_rig(&recording, &rig).rejected()?;
@@ -169,14 +173,16 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
                 .map(|u| u.tip_rms_mm);
         }
     }
-    write_trajectory(&args.output, &trajectory)?;
+    let outputs = OutputSet::new();
+    outputs.add(&args.output, trajectory_csv(&trajectory).as_bytes())?;
     if let Some(path) = &args.markers_out {
-        write_atomically(path, markers_csv(&tracks).as_bytes())?;
+        outputs.add(path, markers_csv(&tracks).as_bytes())?;
     }
     if let Some(path) = &args.diagnostics {
-        write_atomically(path, diagnostics_csv(&tracks).as_bytes())?;
+        outputs.add(path, diagnostics_csv(&tracks).as_bytes())?;
     }
-    Ok(trajectory)
+    let written = outputs.commit()?;
+    Ok((trajectory, written))
 }
 
 /// Root mean square of `values`; 0 for none.
