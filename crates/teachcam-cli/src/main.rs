@@ -29,6 +29,8 @@ enum Command {
     Detect(cmd::detect::Args),
     Repeatability(cmd::repeatability::Args),
     Track(cmd::track::Args),
+    Record(cmd::record::Args),
+    Live(cmd::live::Args),
     Calibrate(cmd::calibrate::Args),
     Uncertainty(cmd::uncertainty::Args),
     UncertaintyMap(cmd::uncertainty_map::Args),
@@ -71,6 +73,11 @@ impl<T, E: Into<anyhow::Error>> Rejected<T> for Result<T, E> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if matches!(cli.command, Command::Record(_) | Command::Live(_)) {
+        // These two end on Ctrl-C by finishing the frame set in hand (a valid recording, a
+        // summary), so their handler comes first.
+        cmd::record::catch_stop();
+    }
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Report(args) => cmd::report::run(&args),
@@ -78,6 +85,8 @@ fn main() -> ExitCode {
         Command::Detect(args) => cmd::detect::run(&args),
         Command::Repeatability(args) => cmd::repeatability::run(&args),
         Command::Track(args) => cmd::track::run(&args),
+        Command::Record(args) => cmd::record::run(&args),
+        Command::Live(args) => cmd::live::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),
         Command::UncertaintyMap(args) => cmd::uncertainty_map::run(&args),
