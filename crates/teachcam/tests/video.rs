@@ -196,7 +196,13 @@ fn the_real_ir_video_reads_whole_with_its_five_markers() {
     assert_eq!(source.cameras()[0].size, Some((752, 480)));
     assert_eq!(source.len_hint(), Some(402));
     assert!((source.fps() - 20.0).abs() < 1e-9, "the AVI's own rate");
-    let config = DetectConfig::default();
+    // This footage's markers are saturated, block-compressed discs of 23–450 px whose
+    // roundness falls to 0.32 (measured over the 402 frames); the specks beside them are 4–5 px.
+    let config = DetectConfig {
+        min_roundness: 0.3,
+        min_area_px: 20,
+        ..DetectConfig::default()
+    };
     let sets: Vec<_> = DetectStream::all_cameras(&mut source, &config)
         .unwrap()
         .collect::<Result<_, _>>()
@@ -214,28 +220,51 @@ fn the_real_ir_video_reads_whole_with_its_five_markers() {
                 .collect()
         })
         .collect();
-    let counts: Vec<usize> = blobs.iter().map(Vec::len).collect();
-    let five = counts.iter().filter(|&&n| n == 5).count();
-    eprintln!("frames with five blobs: {five} of 402; counts {counts:?}");
-    // Frame-to-frame: each centre's nearest centre in the next frame.
-    let mut steps = Vec::new();
-    for pair in blobs.windows(2) {
-        if pair[0].len() == 5 && pair[1].len() == 5 {
-            for a in &pair[0] {
-                let nearest = pair[1]
-                    .iter()
-                    .map(|b| ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt())
-                    .fold(f64::INFINITY, f64::min);
-                steps.push(nearest);
-            }
-        }
-    }
-    steps.sort_by(f64::total_cmp);
-    eprintln!(
-        "steps: median {:.3} px, 95% {:.3} px, max {:.3} px",
-        steps[steps.len() / 2],
-        steps[steps.len() * 95 / 100],
-        steps[steps.len() - 1]
+    let five = blobs.iter().filter(|b| b.len() == 5).count();
+    let more = blobs.iter().filter(|b| b.len() > 5).count();
+    eprintln!("frames with five blobs: {five} of 402, with more: {more}");
+    // Most frames show all five (the others lose one to occlusion or merging), none more.
+    assert!(
+        five * 100 >= 402 * 85,
+        "five markers in {five} of 402 frames"
     );
-    assert!(five * 10 >= 402 * 9, "five markers in {five} of 402 frames");
+    assert_eq!(more, 0);
+    // Frame to frame, each centre's nearest centre in the next frame is a different marker's
+    // (a one-to-one map) in every pair, and almost always lies closer than half the gap to the
+    // nearest other marker, so the markers can be followed without ambiguity (measured: 332 of
+    // 338 pairs; the others are the fastest moves of the hand, up to 18 px per frame).
+    let distance = |a: &(f64, f64), b: &(f64, f64)| (a.0 - b.0).hypot(a.1 - b.1);
+    let (mut pairs, mut one_to_one, mut followed) = (0, 0, 0);
+    for pair in blobs.windows(2) {
+        let (now, next) = (&pair[0], &pair[1]);
+        if now.len() != 5 || next.len() != 5 {
+            continue;
+        }
+        pairs += 1;
+        let nearest: Vec<usize> = now
+            .iter()
+            .map(|a| {
+                (0..5)
+                    .min_by(|&i, &j| distance(a, &next[i]).total_cmp(&distance(a, &next[j])))
+                    .unwrap()
+            })
+            .collect();
+        let mut targets = nearest.clone();
+        targets.sort_unstable();
+        targets.dedup();
+        let unambiguous = now.iter().zip(&nearest).all(|(a, &j)| {
+            let gap = now
+                .iter()
+                .filter(|b| *b != a)
+                .map(|b| distance(a, b))
+                .fold(f64::INFINITY, f64::min);
+            distance(a, &next[j]) < 0.5 * gap
+        });
+        one_to_one += usize::from(targets.len() == 5);
+        followed += usize::from(targets.len() == 5 && unambiguous);
+    }
+    eprintln!("followed {followed} of {pairs} consecutive five-marker pairs");
+    assert!(pairs > 300);
+    assert_eq!(one_to_one, pairs);
+    assert!(followed * 100 >= pairs * 95, "{followed} of {pairs}");
 }

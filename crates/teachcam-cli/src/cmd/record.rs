@@ -63,7 +63,7 @@ pub struct Args {
     /// Stop after this many seconds.
     #[arg(long, value_parser = parse_seconds)]
     pub seconds: Option<f64>,
-    /// Stop after this many frame sets.
+    /// Stop after writing this many frame sets.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub frames: Option<u64>,
     /// Cameras: manual exposure, milliseconds (where the driver allows).
@@ -138,11 +138,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
+    // `--frames` counts sets written, so the source is not capped by it: a set dropped
+    // because the writer fell behind does not count.
     let config = source_config(
         &args.source,
         args.fps,
         args.seconds,
-        args.frames,
+        None,
         args.exposure_ms,
         args.gain,
     );
