@@ -2,12 +2,15 @@
 //!
 //! Each subcommand lives in `cmd/<name>.rs` as an `Args` struct (its doc comments are the help
 //! text) and a `run` function: parse → resolve files → call the library → write outputs whole.
-//! Exit status: 0 success, 1 input data rejected, 2 usage or internal error.
+//! Exit status: 0 success, 1 input data rejected, 2 usage (flags and flag values, output paths)
+//! or internal error, 130 interrupted (SIGINT or SIGTERM: the temporaries of unfinished outputs
+//! are removed first; ARCHITECTURE.md, "Outputs and exit codes").
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod announce;
 mod cmd;
 mod plot;
 mod progress;
@@ -17,6 +20,9 @@ mod progress;
 #[derive(Debug, Parser)]
 #[command(name = "teachcam", version, about, long_about = None)]
 struct Cli {
+    /// Print nothing on success (errors are still printed).
+    #[arg(long, short, global = true)]
+    quiet: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -73,11 +79,19 @@ impl<T, E: Into<anyhow::Error>> Rejected<T> for Result<T, E> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    announce::set_quiet(cli.quiet);
     if matches!(cli.command, Command::Record(_) | Command::Live(_)) {
         // These two end on Ctrl-C by finishing the frame set in hand (a valid recording, a
         // summary), so their handler comes first.
         cmd::record::catch_stop();
     }
+    // On SIGINT/SIGTERM no output is left half written (each is renamed whole or not at all),
+    // and the temporaries of those unfinished are removed. Without the handler (it cannot be
+    // set twice) an interrupt leaves temporaries, which the next run in that folder removes.
+    let _ = ctrlc::set_handler(|| {
+        teachcam::io::output::remove_live_temporaries();
+        std::process::exit(130);
+    });
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Report(args) => cmd::report::run(&args),

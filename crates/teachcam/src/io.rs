@@ -1,16 +1,19 @@
 //! File formats of the user-facing contract (`CONTRACT.md`): rig and tool JSON, recording
 //! folders, trajectory CSV. Every reader checks what it reads and names the file and the field
 //! (or line) it refuses; every writer writes a whole file or nothing (a temporary file in the
-//! same folder, renamed over the target once complete).
+//! same folder, renamed over the target once complete), and a command's several files all or
+//! none ([`output`]).
 
 pub mod camera_file;
+pub mod output;
 pub mod recording;
 pub mod rig;
 pub mod tool;
 pub mod trajectory;
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
+
+pub use output::{Output, OutputPathError, OutputSet, check_outputs};
 
 /// Why a file could not be read or written.
 #[derive(Debug, thiserror::Error)]
@@ -96,38 +99,16 @@ pub fn read_text(path: &Path) -> Result<String, FileError> {
     })
 }
 
-/// Writes `contents` to `path` whole or not at all: into a temporary file beside it, flushed
-/// and synced, then renamed over `path`. A failure leaves any previous file untouched.
+/// Writes `contents` to `path` whole or not at all: an [`OutputSet`] of one file (a temporary
+/// beside it, flushed and synced, then renamed over `path`). A failure leaves any previous file
+/// untouched.
 ///
 /// # Errors
 /// [`FileError::Write`] naming `path`.
 pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), FileError> {
-    let err = |source| FileError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
-    let folder = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| err(std::io::Error::other("no file name")))?;
-    let mut temporary_name = std::ffi::OsString::from(".");
-    temporary_name.push(file_name);
-    temporary_name.push(format!(".tmp{}", std::process::id()));
-    let temporary = folder.join(temporary_name);
-    let result = (|| {
-        let mut file = std::fs::File::create(&temporary)?;
-        file.write_all(contents)?;
-        file.sync_all()?;
-        std::fs::rename(&temporary, path)
-    })();
-    if result.is_err() {
-        // Best effort: the temporary may not exist when creation itself failed.
-        let _ = std::fs::remove_file(&temporary);
-    }
-    result.map_err(err)
+    let set = OutputSet::new();
+    set.add(path, contents)?;
+    set.commit().map(|_| ())
 }
 
 /// Parses JSON into `T`, naming the file and serde's line/column on failure.

@@ -26,6 +26,8 @@
 //! - [`calib`]: chessboard corners, Zhang intrinsics, rig extrinsics and bundle adjustment (§II-A).
 //! - [`detect`]: marker blobs in an image, with sub-pixel centres (§II-A, §IV-A).
 //! - [`correspond`]: which blobs in different cameras show the same marker (§II-A).
+//! - [`sync`]: unsynchronised cameras: each camera's time offset estimated from the blob
+//!   tracks, and the blobs moved to common frame times before correspondence.
 //! - [`triangulate`]: 3-D points from corresponding blobs.
 //! - [`identify`]: which point is which marker, by distance-matrix voting (§II-B).
 //! - [`register`]: the tool's pose by SVD registration (§II-C).
@@ -50,6 +52,7 @@ pub mod io;
 pub mod calib;
 pub mod detect;
 pub mod correspond;
+pub mod sync;
 pub mod triangulate;
 pub mod identify;
 pub mod register;

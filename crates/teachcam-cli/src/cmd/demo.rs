@@ -44,12 +44,9 @@ pub struct Args {
     /// Seed of the simulated image noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Print the summary as JSON on stdout instead of text.
+    /// Print the summary as JSON on stdout instead of text (also with the global `--quiet`).
     #[arg(long)]
     pub json: bool,
-    /// Print nothing but errors (and the JSON summary with --json).
-    #[arg(long)]
-    pub quiet: bool,
 }
 
 /// The demo's numbers.
@@ -233,7 +230,7 @@ fn print_summary(s: &Summary, args: &Args) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(s)?);
         return Ok(());
     }
-    if args.quiet {
+    if crate::announce::quiet() {
         return Ok(());
     }
     println!(

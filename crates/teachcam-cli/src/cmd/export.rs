@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use teachcam::io::write_atomically;
+use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::robot::check::{CheckReport, check_path};
 use teachcam::robot::krl::krl_program;
 use teachcam::robot::program::build_program;
@@ -65,6 +65,8 @@ pub struct Args {
 /// What [`write_program`] wrote.
 #[derive(Debug)]
 pub struct Written {
+    /// The files written.
+    pub files: Vec<PathBuf>,
     /// Moves in the program (after simplification).
     pub moves: usize,
     /// The robot check of every frame.
@@ -81,6 +83,23 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
     if !(args.tolerance_mm > 0.0 && args.tolerance_deg > 0.0) {
         anyhow::bail!("--tolerance-mm and --tolerance-deg must be positive");
     }
+    let dat = args.output.with_extension("dat");
+    let program = |extensions| Output {
+        path: &args.output,
+        format: args.dialect.format(),
+        extensions,
+    };
+    let mut outputs = vec![program(args.dialect.extensions())];
+    if args.dialect == Dialect::Krl {
+        outputs.push(Output {
+            path: &dat,
+            format: "KRL data",
+            extensions: &["dat"],
+        });
+    }
+    let mut inputs = vec![args.trajectory.as_path()];
+    inputs.extend(args.cell.tool.as_deref());
+    check_outputs(&outputs, &inputs)?;
     let resolved = resolve(&args.trajectory, &args.cell)?;
     let report = check_path(
         &resolved.model,
@@ -111,45 +130,65 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         orientation_tolerance: args.tolerance_deg.to_radians(),
     };
     let program = build_program(&name, &resolved.cell, &report, &tolerance);
+    let outputs = OutputSet::new();
     match args.dialect {
-        Dialect::Rapid => write_atomically(
+        Dialect::Rapid => outputs.add(
             &args.output,
             rapid_module(&program, &RapidConfig::default()).as_bytes(),
         )?,
         Dialect::Krl => {
             let krl = krl_program(&program);
-            let dat = args.output.with_extension("dat");
-            write_atomically(&dat, krl.dat.as_bytes())?;
-            write_atomically(&args.output, krl.src.as_bytes())?;
+            outputs.add(&args.output, krl.src.as_bytes())?;
+            outputs.add(&dat, krl.dat.as_bytes())?;
         }
-        Dialect::Urscript => write_atomically(
+        Dialect::Urscript => outputs.add(
             &args.output,
             urscript_program(&program, &UrScriptConfig::default()).as_bytes(),
         )?,
-        Dialect::Csv => write_atomically(&args.output, poses_csv(&report).as_bytes())?,
+        Dialect::Csv => outputs.add(&args.output, poses_csv(&report).as_bytes())?,
     }
     Ok(Written {
+        files: outputs.commit()?,
         moves: program.moves.len(),
         report,
     })
 }
 
-/// Run the command.
-#[expect(clippy::print_stdout, reason = "the command's report")]
-pub fn run(args: &Args) -> anyhow::Result<()> {
-    let Written { moves, report } = write_program(args)?;
-    if args.dialect == Dialect::Csv {
-        println!(
-            "wrote {} ({} frames)",
-            args.output.display(),
-            report.frames.len()
-        );
-    } else {
-        println!(
-            "wrote {} ({moves} moves from {} frames)",
-            args.output.display(),
-            report.frames.len()
-        );
+impl Dialect {
+    /// What the dialect's program file is, for messages.
+    fn format(self) -> &'static str {
+        match self {
+            Self::Rapid => "an ABB RAPID module",
+            Self::Krl => "a KUKA KRL program",
+            Self::Urscript => "a URScript program",
+            Self::Csv => "CSV",
+        }
     }
+
+    /// The extensions of the dialect's program file (RAPID: module, program module, old
+    /// program).
+    fn extensions(self) -> &'static [&'static str] {
+        match self {
+            Self::Rapid => &["mod", "modx", "prg"],
+            Self::Krl => &["src"],
+            Self::Urscript => &["script"],
+            Self::Csv => &["csv"],
+        }
+    }
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let Written {
+        files,
+        moves,
+        report,
+    } = write_program(args)?;
+    let what = if args.dialect == Dialect::Csv {
+        format!("{} frames", report.frames.len())
+    } else {
+        format!("{moves} moves from {} frames", report.frames.len())
+    };
+    crate::announce::wrote(&files, &what);
     Ok(())
 }

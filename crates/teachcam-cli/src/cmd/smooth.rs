@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use teachcam::io::tool::read_tool;
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
+use teachcam::io::{Output, check_outputs};
 use teachcam::smooth::spline::SplineEnds;
 use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, smooth, suggest_cutoff};
 
@@ -108,6 +109,9 @@ pub enum Ends {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
+    let mut inputs = vec![args.input.as_path()];
+    inputs.extend(args.tool.as_deref());
+    check_outputs(&[Output::csv(&args.output)], &inputs)?;
     let trajectory = read_trajectory(&args.input).rejected()?;
     let mut config = SmoothConfig {
         max_gap_frames: args.max_gap,
@@ -168,5 +172,9 @@ pub fn run(args: &Args) -> Result<()> {
         .with_context(|| format!("{}", args.input.display()))
         .rejected()?;
     write_trajectory(&args.output, &smoothed)?;
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!("{} frames", smoothed.len()),
+    );
     Ok(())
 }

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use teachcam::io::trajectory::read_trajectory;
+use teachcam::io::{Output, check_outputs};
 use teachcam::smooth::{COMPONENTS, ComponentSpectra, SmoothConfig, trajectory_spectrum};
 
 use crate::Rejected;
@@ -31,6 +32,12 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
+    let output = Output {
+        path: &args.output,
+        format: "a spectrum (CSV or PNG)",
+        extensions: &["csv", "png"],
+    };
+    check_outputs(&[output], &[&args.input])?;
     let trajectory = read_trajectory(&args.input).rejected()?;
     let spectra = trajectory_spectrum(&trajectory, SmoothConfig::default().time_step_tolerance)
         .with_context(|| format!("{}", args.input.display()))
@@ -40,7 +47,7 @@ pub fn run(args: &Args) -> Result<()> {
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("png"));
     if is_png {
-        write_png(&args.output, &spectrum_panels(&spectra))
+        write_png(&args.output, &spectrum_panels(&spectra))?;
     } else {
         let mut text = String::from("frequency_hz");
         for c in COMPONENTS {
@@ -56,8 +63,12 @@ pub fn run(args: &Args) -> Result<()> {
             text.push('\n');
         }
         teachcam::io::write_atomically(&args.output, text.as_bytes())?;
-        Ok(())
     }
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!("{} frequencies", spectra.frequency_hz.len()),
+    );
+    Ok(())
 }
 
 /// The two panels of a spectrum figure (positions, rotations), without the DC bin.

@@ -8,8 +8,8 @@ use teachcam::correspond::Views;
 use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
 use teachcam::identify::check_identifiable;
 use teachcam::io::recording::{check_recording_against_rig, open_recording, read_frame};
-use teachcam::io::trajectory::write_trajectory;
-use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::io::trajectory::trajectory_csv;
+use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
 use teachcam::metrology::{first_order, residual_noise_px};
 use teachcam::track::{FrameTrack, TrackConfig, Tracker};
 use teachcam::trajectory::Trajectory;
@@ -73,23 +73,26 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let trajectory = track_to_files(args)?;
+    let (trajectory, written) = track_to_files(args)?;
     let tracked = trajectory
         .samples
         .iter()
         .filter(|s| s.pose.is_some())
         .count();
-    eprintln!(
-        "{tracked} of {} frames tracked -> {}",
-        trajectory.len(),
-        args.output.display()
+    crate::announce::wrote(
+        &written,
+        &format!("{tracked} of {} frames tracked", trajectory.len()),
     );
     Ok(())
 }
 
-/// Detects, tracks and writes the trajectory (and the optional files); prints nothing but a
-/// progress bar on a terminal.
-pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
+/// Detects, tracks and writes the trajectory and the optional files, all or none; returns the
+/// trajectory and the files written. Prints nothing but a progress bar on a terminal.
+pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)> {
+    let mut outputs = vec![Output::csv(&args.output)];
+    outputs.extend(args.markers_out.as_deref().map(Output::csv));
+    outputs.extend(args.diagnostics.as_deref().map(Output::csv));
+    check_outputs(&outputs, &[&args.rig, &args.tool])?;
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
     let mut config = TrackConfig::default();
@@ -169,14 +172,16 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<Trajectory> {
                 .map(|u| u.tip_rms_mm);
         }
     }
-    write_trajectory(&args.output, &trajectory)?;
+    let outputs = OutputSet::new();
+    outputs.add(&args.output, trajectory_csv(&trajectory).as_bytes())?;
     if let Some(path) = &args.markers_out {
-        write_atomically(path, markers_csv(&tracks).as_bytes())?;
+        outputs.add(path, markers_csv(&tracks).as_bytes())?;
     }
     if let Some(path) = &args.diagnostics {
-        write_atomically(path, diagnostics_csv(&tracks).as_bytes())?;
+        outputs.add(path, diagnostics_csv(&tracks).as_bytes())?;
     }
-    Ok(trajectory)
+    let written = outputs.commit()?;
+    Ok((trajectory, written))
 }
 
 /// Root mean square of `values`; 0 for none.
