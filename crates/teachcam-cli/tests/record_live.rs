@@ -27,10 +27,13 @@ fn a_recorded_simulation_is_a_recording_that_track_reads() {
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("rec");
     let rec_s = rec.to_str().unwrap();
+    // 10 Hz: three 1280×1024 PNG encodings per set stay well within a loaded machine's means.
     let out = teachcam(&[
         "record",
         "--source",
         "sim:paper",
+        "--fps",
+        "10",
         "--frames",
         "12",
         "--out",

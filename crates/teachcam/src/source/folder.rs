@@ -38,6 +38,9 @@ pub struct FolderSource {
     len_hint: Option<usize>,
     next_index: usize,
     failed: bool,
+    /// When set, only these sets are delivered (a sample); the others are skipped undecoded
+    /// (PNG) or decoded and dropped (video).
+    keep: Option<std::collections::BTreeSet<usize>>,
 }
 
 impl FolderSource {
@@ -106,7 +109,17 @@ impl FolderSource {
                 .and_then(|l| l.into_iter().min()),
             next_index: 0,
             failed: false,
+            keep: None,
         })
+    }
+
+    /// Delivers only the sets whose index is in `frames` (e.g. a sample spread over the
+    /// recording), keeping their indices.
+    #[must_use]
+    pub fn only_frames(mut self, frames: &[usize]) -> Self {
+        self.len_hint = Some(frames.len());
+        self.keep = Some(frames.iter().copied().collect());
+        self
     }
 
     /// The folder.
@@ -185,6 +198,33 @@ impl FrameSource for FolderSource {
     }
 
     fn next_set(&mut self) -> Option<Result<FrameSet, SourceError>> {
+        loop {
+            let set = self.next_any()?;
+            let wanted = match (&set, &self.keep) {
+                (Ok(set), Some(keep)) => keep.contains(&set.index),
+                _ => true,
+            };
+            if wanted {
+                return Some(set);
+            }
+            if self
+                .keep
+                .as_ref()
+                .and_then(|k| k.last())
+                .is_some_and(|&last| self.next_index > last)
+            {
+                return None;
+            }
+        }
+    }
+
+    fn stats(&self) -> SourceStats {
+        self.stats_inner()
+    }
+}
+
+impl FolderSource {
+    fn next_any(&mut self) -> Option<Result<FrameSet, SourceError>> {
         if self.failed {
             return None;
         }
@@ -241,7 +281,7 @@ impl FrameSource for FolderSource {
         }
     }
 
-    fn stats(&self) -> SourceStats {
+    fn stats_inner(&self) -> SourceStats {
         self.pairer.as_ref().map_or_else(
             || SourceStats {
                 unpaired_frames: vec![0; self.cameras.len()],
