@@ -12,7 +12,7 @@ use teachcam::source::{SourceSpec, open_source};
 use teachcam::trajectory::{Sample, Trajectory};
 
 use crate::Rejected;
-use crate::cmd::record::{parse_fps, parse_seconds, parse_source, source_config, stop_requested};
+use crate::cmd::record::{parse_source, source_config, stop_requested};
 
 /// Track the tool live: capture → detect → track at camera rate, printing poses as they come.
 ///
@@ -44,10 +44,10 @@ pub struct Args {
     #[arg(long)]
     pub tool: Option<PathBuf>,
     /// Frames per second (simulator's rate, rate asked of cameras).
-    #[arg(long, value_parser = parse_fps)]
+    #[arg(long, value_parser = crate::flags::fps)]
     pub fps: Option<f64>,
     /// Stop after this many seconds.
-    #[arg(long, value_parser = parse_seconds)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub seconds: Option<f64>,
     /// End with one JSON line of counts and latency percentiles.
     #[arg(long)]
@@ -56,7 +56,7 @@ pub struct Args {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Cameras: manual exposure, milliseconds (where the driver allows).
-    #[arg(long, value_parser = parse_seconds)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub exposure_ms: Option<f64>,
     /// Cameras: analogue gain in the driver's units (where the driver allows).
     #[arg(long)]

@@ -58,16 +58,16 @@ pub struct Args {
     #[arg(long)]
     pub out: PathBuf,
     /// Frames per second (simulator's rate, rate asked of cameras, a recording's rate).
-    #[arg(long, value_parser = parse_fps)]
+    #[arg(long, value_parser = crate::flags::fps)]
     pub fps: Option<f64>,
     /// Stop after this many seconds.
-    #[arg(long, value_parser = parse_seconds)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub seconds: Option<f64>,
     /// Stop after writing this many frame sets.
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
-    pub frames: Option<u64>,
+    #[arg(long, value_parser = crate::flags::count)]
+    pub frames: Option<usize>,
     /// Cameras: manual exposure, milliseconds (where the driver allows).
-    #[arg(long, value_parser = parse_seconds)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub exposure_ms: Option<f64>,
     /// Cameras: analogue gain in the driver's units (where the driver allows).
     #[arg(long)]
@@ -80,28 +80,12 @@ pub fn parse_source(text: &str) -> Result<SourceSpec, String> {
         .map_err(|e: teachcam::source::SourceError| e.to_string())
 }
 
-/// A `--fps` value: a positive rate up to 10 kHz.
-pub fn parse_fps(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 && v <= 10_000.0 => Ok(v),
-        _ => Err(format!("expected a rate within 0..10000 Hz, got {text:?}")),
-    }
-}
-
-/// A positive duration.
-pub fn parse_seconds(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("expected a positive number, got {text:?}")),
-    }
-}
-
 /// The source configuration common to `record` and `live`.
 pub fn source_config(
     spec: &SourceSpec,
     fps: Option<f64>,
     seconds: Option<f64>,
-    frames: Option<u64>,
+    frames: Option<usize>,
     exposure_ms: Option<f64>,
     gain: Option<i32>,
 ) -> SourceConfig {
@@ -118,7 +102,7 @@ pub fn source_config(
     let from_seconds = seconds
         .zip(rate)
         .map(|(s, r)| (s * r).round().max(1.0) as usize);
-    config.max_sets = match (frames.map(|f| f as usize), from_seconds) {
+    config.max_sets = match (frames, from_seconds) {
         (Some(a), Some(b)) => Some(a.min(b)),
         (a, b) => a.or(b),
     };
@@ -180,7 +164,7 @@ fn record(source: &mut dyn FrameSource, names: &[String], args: &Args) -> anyhow
         {
             break;
         }
-        if args.frames.is_some_and(|f| written as u64 >= f) {
+        if args.frames.is_some_and(|f| written >= f) {
             break;
         }
         let Some(set) = source.next_set() else { break };
