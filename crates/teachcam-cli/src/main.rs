@@ -37,6 +37,8 @@ enum Command {
     Detect(cmd::detect::Args),
     Repeatability(cmd::repeatability::Args),
     Track(cmd::track::Args),
+    Record(cmd::record::Args),
+    Live(cmd::live::Args),
     Doctor(cmd::doctor::Args),
     Calibrate(cmd::calibrate::Args),
     Uncertainty(cmd::uncertainty::Args),
@@ -133,6 +135,11 @@ fn main() -> ExitCode {
         Err(error) => return usage_error(&error),
     };
     announce::set_quiet(cli.quiet);
+    if matches!(cli.command, Command::Record(_) | Command::Live(_)) {
+        // These two end on Ctrl-C by finishing the frame set in hand (a valid recording, a
+        // summary), so their handler comes first.
+        cmd::record::catch_stop();
+    }
     // On SIGINT/SIGTERM no output is left half written (each is renamed whole or not at all),
     // and the temporaries of those unfinished are removed. Without the handler (it cannot be
     // set twice) an interrupt leaves temporaries, which the next run in that folder removes.
@@ -147,6 +154,8 @@ fn main() -> ExitCode {
         Command::Detect(args) => cmd::detect::run(&args),
         Command::Repeatability(args) => cmd::repeatability::run(&args),
         Command::Track(args) => cmd::track::run(&args),
+        Command::Record(args) => cmd::record::run(&args),
+        Command::Live(args) => cmd::live::run(&args),
         Command::Doctor(args) => cmd::doctor::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),

@@ -40,6 +40,9 @@
 //! - [`vendor`]: OptiTrack Motive CSV and Qualisys TSV marker exports in, Motive-like CSV out.
 //! - [`sim`]: the simulator that feeds every test, benchmark and the demo (recordings, and
 //!   chessboard views for rig calibration).
+//! - [`source`]: where frames come from: recording folders (PNG or video via FFmpeg), V4L2
+//!   cameras, the simulator at a rate; pairing across cameras.
+//! - [`pipeline`]: the conductor: a source's frames detected and tracked as they come.
 
 pub mod geometry;
 pub mod camera;
@@ -61,3 +64,5 @@ pub mod robot;
 pub mod c3d;
 pub mod vendor;
 pub mod sim;
+pub mod source;
+pub mod pipeline;

@@ -2,14 +2,20 @@
 //! ```text
 //! recording/
 //!   recording.json        {"fps": 30.0}      (optional; default 30)
+//!   timestamps.csv        camera,frame,time_s (optional; written by `teachcam record`)
 //!   cam0/000000.png ...   one sub-folder per camera, named as in the rig
+//!   cam1.avi              or one video file per camera, named after it (decoded by FFmpeg)
 //! ```
 //! Frames are 8- or 16-bit grayscale PNG (colour is converted to gray), sorted by file name;
-//! every camera has the same number of frames.
+//! every camera has the same number of frames. Videos are listed here and decoded by
+//! [`crate::source`].
 
+use std::collections::BTreeMap;
+use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
-use image::{DynamicImage, GrayImage, ImageBuffer, Luma};
+use image::codecs::png::PngDecoder;
+use image::{DynamicImage, GrayImage, ImageBuffer, ImageDecoder, Luma};
 use serde::{Deserialize, Serialize};
 
 use super::{FileError, parse_json, read_text, write_atomically, write_json};
@@ -64,7 +70,7 @@ pub struct CameraFrames {
     pub frames: Vec<PathBuf>,
 }
 
-/// A recording folder, listed and checked but not decoded.
+/// A recording folder of PNG cameras, listed and checked but not decoded.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Recording {
     /// The folder.
@@ -100,100 +106,312 @@ impl Recording {
     }
 }
 
-/// Lists and checks a recording folder: at least one camera sub-folder, PNG files only, the
-/// same number of frames in every camera, a valid `recording.json` when present.
-/// `fps_override` (the `--fps` flag) wins over the file.
+/// Largest frame accepted, pixels (64 MP): above every machine-vision sensor in common use (the
+/// paper's cameras have 1.3 MP, large industrial ones 25–50 MP), and small enough that the
+/// frames in flight of a parallel pipeline fit in memory (64 MB each at 8 bits). Checked from
+/// the file's header or the video's stream information, before any decoding.
+pub const MAX_FRAME_PIXELS: u64 = 64_000_000;
+
+/// File extensions read as one camera's video (any container FFmpeg reads; matched without
+/// case).
+pub const VIDEO_EXTENSIONS: [&str; 14] = [
+    "mp4", "avi", "mkv", "mov", "webm", "m4v", "mpg", "mpeg", "ts", "ogv", "wmv", "flv", "nut",
+    "y4m",
+];
+
+/// The name of the optional per-frame time file beside the frames.
+pub const TIMESTAMPS_FILE: &str = "timestamps.csv";
+
+/// Where one camera's frames are.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CameraMedia {
+    /// PNG files, sorted by name; index = frame number.
+    Images(Vec<PathBuf>),
+    /// One video file, decoded in order.
+    Video(PathBuf),
+}
+
+/// One camera of a listed recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraEntry {
+    /// The camera's name (sub-folder or video file stem), matched against the rig.
+    pub name: String,
+    /// Its frames.
+    pub media: CameraMedia,
+}
+
+/// A recording folder of image and video cameras, listed and checked but not decoded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordingListing {
+    /// The folder.
+    pub root: PathBuf,
+    /// Frames per second: `--fps`, else `recording.json`; `None` when neither says (the caller
+    /// falls back on the videos' own rate or [`DEFAULT_FPS`]).
+    pub fps: Option<f64>,
+    /// Cameras, sorted by name.
+    pub cameras: Vec<CameraEntry>,
+    /// Each camera's frame times from `timestamps.csv`, seconds, when the file is present.
+    pub timestamps: Option<BTreeMap<String, Vec<f64>>>,
+}
+
+fn read_dir_sorted(path: &Path) -> Result<Vec<PathBuf>, FileError> {
+    let err = |source| FileError::Read {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut entries = Vec::new();
+    for entry in std::fs::read_dir(path).map_err(err)? {
+        entries.push(entry.map_err(err)?.path());
+    }
+    entries.sort();
+    Ok(entries)
+}
+
+fn has_extension(path: &Path, extensions: &[&str]) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| extensions.iter().any(|x| e.eq_ignore_ascii_case(x)))
+}
+
+/// Lists and checks a recording folder: at least one camera (a sub-folder of PNG files or a
+/// video file), never both for one name, the same number of PNG frames in every image camera,
+/// a valid `recording.json` and `timestamps.csv` when present. `fps_override` (the `--fps`
+/// flag) wins over the file. Video frame counts are checked when the videos are opened.
 ///
 /// # Errors
 /// [`FileError`] naming the folder, the camera or the file.
-pub fn open_recording(root: &Path, fps_override: Option<f64>) -> Result<Recording, FileError> {
-    let entries = std::fs::read_dir(root).map_err(|source| FileError::Read {
-        path: root.to_path_buf(),
-        source,
-    })?;
-    let mut cameras = Vec::new();
-    for entry in entries {
-        let entry = entry.map_err(|source| FileError::Read {
-            path: root.to_path_buf(),
-            source,
-        })?;
-        let path = entry.path();
-        if !path.is_dir() {
+pub fn list_recording(
+    root: &Path,
+    fps_override: Option<f64>,
+) -> Result<RecordingListing, FileError> {
+    let mut cameras: Vec<CameraEntry> = Vec::new();
+    for path in read_dir_sorted(root)? {
+        let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
             continue;
-        }
-        let name = entry.file_name().to_string_lossy().into_owned();
+        };
         if name.starts_with('.') {
             continue;
         }
-        let mut frames = Vec::new();
-        for file in std::fs::read_dir(&path).map_err(|source| FileError::Read {
-            path: path.clone(),
-            source,
-        })? {
-            let file = file
-                .map_err(|source| FileError::Read {
-                    path: path.clone(),
-                    source,
-                })?
-                .path();
-            let is_png = file
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-            if file.is_file() && is_png {
-                frames.push(file);
+        let entry = if path.is_dir() {
+            let frames: Vec<PathBuf> = read_dir_sorted(&path)?
+                .into_iter()
+                .filter(|f| f.is_file() && has_extension(f, &["png"]))
+                .collect();
+            CameraEntry {
+                name,
+                media: CameraMedia::Images(frames),
             }
+        } else if path.is_file() && has_extension(&path, &VIDEO_EXTENSIONS) {
+            let Some(stem) = path.file_stem().map(|s| s.to_string_lossy().into_owned()) else {
+                continue;
+            };
+            CameraEntry {
+                name: stem,
+                media: CameraMedia::Video(path),
+            }
+        } else {
+            continue;
+        };
+        if let Some(twin) = cameras.iter().find(|c| c.name == entry.name) {
+            let describe = |c: &CameraEntry| match &c.media {
+                CameraMedia::Images(_) => format!("{}/", c.name),
+                CameraMedia::Video(p) => p
+                    .file_name()
+                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+            };
+            return Err(FileError::invalid(
+                root,
+                format!(
+                    "camera {} is given twice ({} and {}); keep one",
+                    entry.name,
+                    describe(twin),
+                    describe(&entry)
+                ),
+            ));
         }
-        frames.sort();
-        cameras.push(CameraFrames { name, frames });
+        cameras.push(entry);
     }
     cameras.sort_by(|a, b| a.name.cmp(&b.name));
     if cameras.is_empty() {
         return Err(FileError::invalid(
             root,
-            "no camera sub-folders (expected cam0/, cam1/, ... with PNG frames)",
+            "no cameras (expected cam0/, cam1/, ... with PNG frames, or videos cam0.mp4, ...)",
         ));
     }
-    let expected = cameras[0].frames.len();
-    if let Some(empty) = cameras.iter().find(|c| c.frames.is_empty()) {
+    let image_counts: Vec<(&str, usize)> = cameras
+        .iter()
+        .filter_map(|c| match &c.media {
+            CameraMedia::Images(frames) => Some((c.name.as_str(), frames.len())),
+            CameraMedia::Video(_) => None,
+        })
+        .collect();
+    if let Some((empty, _)) = image_counts.iter().find(|(_, n)| *n == 0) {
         return Err(FileError::invalid(
             root,
-            format!("camera {}: no PNG frames in {}/", empty.name, empty.name),
+            format!("camera {empty}: no PNG frames in {empty}/"),
         ));
     }
-    if let Some(other) = cameras.iter().find(|c| c.frames.len() != expected) {
+    if let (Some((first, expected)), Some((other, n))) = (
+        image_counts.first(),
+        image_counts.iter().find(|(_, n)| *n != image_counts[0].1),
+    ) {
         return Err(FileError::invalid(
             root,
-            format!(
-                "camera {} has {} frames but camera {} has {}",
-                other.name,
-                other.frames.len(),
-                cameras[0].name,
-                expected
-            ),
+            format!("camera {other} has {n} frames but camera {first} has {expected}"),
         ));
     }
     let fps = match fps_override {
-        Some(fps) => fps,
+        Some(fps) => Some(fps),
         None => {
             let file = root.join("recording.json");
             if file.exists() {
-                parse_json::<RecordingFile>(&file, &read_text(&file)?)?.fps
+                Some(parse_json::<RecordingFile>(&file, &read_text(&file)?)?.fps)
             } else {
-                DEFAULT_FPS
+                None
             }
         }
     };
-    let (field, named) = match fps_override {
-        Some(_) => ("--fps", root.to_path_buf()),
-        None => ("fps", root.join("recording.json")),
+    if let Some(fps) = fps {
+        let (field, named) = match fps_override {
+            Some(_) => ("--fps", root.to_path_buf()),
+            None => ("fps", root.join("recording.json")),
+        };
+        crate::trajectory::check_sample_rate_hz(field, fps)
+            .map_err(|e| FileError::invalid(&named, e.to_string()))?;
+    }
+    let timestamps_path = root.join(TIMESTAMPS_FILE);
+    let timestamps = if timestamps_path.is_file() {
+        let times = read_timestamps(&timestamps_path)?;
+        for camera in &cameras {
+            let Some(camera_times) = times.get(&camera.name) else {
+                return Err(FileError::invalid(
+                    &timestamps_path,
+                    format!("no times for camera {}", camera.name),
+                ));
+            };
+            if let CameraMedia::Images(frames) = &camera.media
+                && frames.len() != camera_times.len()
+            {
+                return Err(FileError::invalid(
+                    &timestamps_path,
+                    format!(
+                        "camera {} has {} frames but {} times",
+                        camera.name,
+                        frames.len(),
+                        camera_times.len()
+                    ),
+                ));
+            }
+        }
+        Some(times)
+    } else {
+        None
     };
-    crate::trajectory::check_sample_rate_hz(field, fps)
-        .map_err(|e| FileError::invalid(&named, e.to_string()))?;
-    Ok(Recording {
+    Ok(RecordingListing {
         root: root.to_path_buf(),
         fps,
         cameras,
+        timestamps,
     })
+}
+
+/// Lists and checks a recording folder of PNG cameras ([`list_recording`], refusing video
+/// cameras, for the commands that read PNG files only).
+///
+/// # Errors
+/// [`FileError`] naming the folder, the camera or the file.
+pub fn open_recording(root: &Path, fps_override: Option<f64>) -> Result<Recording, FileError> {
+    let listing = list_recording(root, fps_override)?;
+    let cameras = listing
+        .cameras
+        .into_iter()
+        .map(|c| match c.media {
+            CameraMedia::Images(frames) => Ok(CameraFrames {
+                name: c.name,
+                frames,
+            }),
+            CameraMedia::Video(path) => Err(FileError::invalid(
+                &path,
+                format!(
+                    "camera {} is a video; this command reads PNG frames (cam0/000000.png, ...)",
+                    c.name
+                ),
+            )),
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(Recording {
+        root: listing.root,
+        fps: listing.fps.unwrap_or(DEFAULT_FPS),
+        cameras,
+    })
+}
+
+/// Reads `timestamps.csv` (`camera,frame,time_s`): for each camera, the time of every frame,
+/// seconds. Frames of a camera must be listed `0, 1, 2, …` in order with finite times that
+/// never decrease.
+///
+/// # Errors
+/// [`FileError::InvalidLine`] naming the line.
+pub fn read_timestamps(path: &Path) -> Result<BTreeMap<String, Vec<f64>>, FileError> {
+    let text = read_text(path)?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or_default().trim();
+    let columns: Vec<&str> = header.split(',').map(str::trim).collect();
+    if columns.len() < 3 || columns[..3] != ["camera", "frame", "time_s"] {
+        return Err(FileError::invalid_line(
+            path,
+            1,
+            format!("header must start with camera,frame,time_s, got {header:?}"),
+        ));
+    }
+    let mut times: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    for (i, line) in lines.enumerate() {
+        let number = i + 2;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let bad = |message: String| FileError::invalid_line(path, number, message);
+        if fields.len() < 3 {
+            return Err(bad(format!("expected 3 fields, got {}", fields.len())));
+        }
+        let frame: usize = fields[1]
+            .parse()
+            .map_err(|_| bad(format!("frame {:?} is not a frame number", fields[1])))?;
+        let time_s: f64 = fields[2]
+            .parse()
+            .ok()
+            .filter(|t: &f64| t.is_finite())
+            .ok_or_else(|| bad(format!("time_s {:?} is not a finite number", fields[2])))?;
+        let camera = times.entry(fields[0].to_string()).or_default();
+        if frame != camera.len() {
+            return Err(bad(format!(
+                "camera {}: frame {frame} where frame {} was expected",
+                fields[0],
+                camera.len()
+            )));
+        }
+        if camera.last().is_some_and(|&last| time_s < last) {
+            return Err(bad(format!(
+                "camera {}: frame {frame} at {time_s} s is earlier than the frame before",
+                fields[0]
+            )));
+        }
+        camera.push(time_s);
+    }
+    Ok(times)
+}
+
+/// The text of `timestamps.csv` for each camera's frame times, seconds (microsecond digits).
+#[must_use]
+pub fn timestamps_text(times: &BTreeMap<String, Vec<f64>>) -> String {
+    let mut text = String::from("camera,frame,time_s\n");
+    for (camera, camera_times) in times {
+        for (frame, time_s) in camera_times.iter().enumerate() {
+            text.push_str(&format!("{camera},{frame},{time_s:.6}\n"));
+        }
+    }
+    text
 }
 
 /// Checks that every camera of the rig has frames in the recording (extra sub-folders are
@@ -218,17 +436,11 @@ pub fn check_recording_against_rig(recording: &Recording, rig: &Rig) -> Result<(
     Ok(())
 }
 
-/// Most pixels a frame may have: the largest machine-vision sensors in use hold about 45
-/// megapixels (8192x5460); at 16 bits such a frame decodes to 90 MB, and frames decode in
-/// parallel, one per thread. A header claiming more is refused before anything is decoded.
-pub const MAX_FRAME_PIXELS: u64 = 50_000_000;
-
-/// Decodes one frame, checking its size when `expected_size` is given. The size is read from
-/// the PNG header first: a frame of the wrong size or over [`MAX_FRAME_PIXELS`] is refused
-/// before it is decoded.
+/// Decodes one PNG frame, checking its size from the header before decoding: refused above
+/// [`MAX_FRAME_PIXELS`] and, when `expected_size` is given, unless it is that size.
 ///
 /// # Errors
-/// [`FileError`] naming the file: unreadable, not a PNG, truncated, too large, or of the wrong
+/// [`FileError`] naming the file: unreadable, not a PNG, truncated, too large or of the wrong
 /// size.
 pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<GrayFrame, FileError> {
     let bytes = std::fs::read(path).map_err(|source| FileError::Read {
@@ -237,10 +449,14 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
     })?;
     let not_png =
         |e: image::ImageError| FileError::invalid(path, format!("not a readable PNG: {e}"));
-    let (fw, fh) =
-        image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png)
-            .into_dimensions()
-            .map_err(not_png)?;
+    let decoder = PngDecoder::new(Cursor::new(&bytes)).map_err(not_png)?;
+    let (fw, fh) = decoder.dimensions();
+    if u64::from(fw) * u64::from(fh) > MAX_FRAME_PIXELS {
+        return Err(FileError::invalid(
+            path,
+            format!("image is {fw}x{fh}, above the limit of {MAX_FRAME_PIXELS} pixels"),
+        ));
+    }
     if let Some((w, h)) = expected_size
         && (fw, fh) != (w, h)
     {
@@ -249,19 +465,7 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
             format!("image is {fw}x{fh}, the rig says {w}x{h}"),
         ));
     }
-    let pixels = u64::from(fw) * u64::from(fh);
-    if pixels > MAX_FRAME_PIXELS {
-        return Err(FileError::invalid(
-            path,
-            format!(
-                "image is {fw}x{fh} ({:.0} megapixels), more than the {} a frame may have",
-                pixels as f64 / 1e6,
-                MAX_FRAME_PIXELS / 1_000_000
-            ),
-        ));
-    }
-    let image =
-        image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).map_err(not_png)?;
+    let image = DynamicImage::from_decoder(decoder).map_err(not_png)?;
     Ok(GrayFrame::from_dynamic(image))
 }
 
@@ -283,6 +487,32 @@ pub fn write_png(path: &Path, image: &GrayImage) -> Result<(), FileError> {
             source: std::io::Error::other(e),
         })?;
     write_atomically(path, &bytes)
+}
+
+/// Encodes a frame at its own bit depth as PNG and writes it atomically (a frame file is
+/// whole or absent, never cut).
+///
+/// # Errors
+/// [`FileError::Write`].
+pub fn write_frame_png(path: &Path, frame: &GrayFrame) -> Result<(), FileError> {
+    match frame {
+        GrayFrame::Eight(image) => write_png(path, image),
+        GrayFrame::Sixteen(image) => {
+            let mut bytes = Vec::new();
+            let encoder = image::codecs::png::PngEncoder::new_with_quality(
+                &mut bytes,
+                image::codecs::png::CompressionType::Fast,
+                image::codecs::png::FilterType::Sub,
+            );
+            image
+                .write_with_encoder(encoder)
+                .map_err(|e| FileError::Write {
+                    path: path.to_path_buf(),
+                    source: std::io::Error::other(e),
+                })?;
+            write_atomically(path, &bytes)
+        }
+    }
 }
 
 /// Writes `recording.json` with the frame rate.
@@ -364,7 +594,7 @@ mod tests {
             open_recording(empty.path(), None)
                 .unwrap_err()
                 .to_string()
-                .contains("no camera sub-folders")
+                .contains("no cameras")
         );
 
         let bad_fps = tempfile::tempdir().unwrap();

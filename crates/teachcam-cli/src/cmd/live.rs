@@ -1,0 +1,223 @@
+//! `teachcam live`: capture → detect → track at camera rate, poses printed as they come.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use teachcam::io::trajectory::write_trajectory;
+use teachcam::io::{rig::read_rig, tool::read_tool};
+use teachcam::pipeline::{PipelineConfig, TrackStream, TrackedFrame};
+use teachcam::source::{SourceSpec, open_source};
+use teachcam::trajectory::{Sample, Trajectory};
+
+use crate::Rejected;
+use crate::cmd::record::{parse_source, source_config, stop_requested};
+
+/// Track the tool live: capture → detect → track at camera rate, printing poses as they come.
+///
+/// Prints one CSV row per frame set on standard output as soon as its pose is known
+/// (`frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,tip_std_mm,latency_ms`,
+/// pose fields empty where the frame has no pose), or, with `--out`, writes the trajectory CSV
+/// at the end instead. `latency_ms` runs from the frame's exposure to its pose on this machine's
+/// clock (for V4L2 cameras from the buffer's arrival; empty for recordings, which have no
+/// exposure clock). Frames the pipeline could not take in time are dropped at the source and
+/// counted.
+///
+/// Ends at `--seconds`, at the end of a finite source, or on Ctrl-C; `--json` then prints one
+/// line `{"frames": N, "dropped": N, "latency_ms_p50": X, "latency_ms_p99": X, ...}`.
+///
+/// The simulator (`sim:paper`, the default) renders its frames ahead, before the clock starts,
+/// and plays them back and forth at `--fps`, so the numbers are the pipeline's, not the
+/// renderer's; its rig and tool are used unless `--rig`/`--tool` are given.
+///
+/// Example: `teachcam live --source sim:paper --fps 60 --seconds 10 --json`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Where frames come from: sim:SCENARIO, v4l2:DEVICE[,DEVICE...], folder:REC or a folder.
+    #[arg(long, default_value = "sim:paper", value_parser = parse_source)]
+    pub source: SourceSpec,
+    /// Camera rig (rig.json); the scenario's for sim sources.
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
+    /// Tool model (tool.json); the scenario's for sim sources.
+    #[arg(long)]
+    pub tool: Option<PathBuf>,
+    /// Frames per second (simulator's rate, rate asked of cameras).
+    #[arg(long, value_parser = crate::flags::fps)]
+    pub fps: Option<f64>,
+    /// Stop after this many seconds.
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub seconds: Option<f64>,
+    /// End with one JSON line of counts and latency percentiles.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the trajectory CSV here at the end instead of printing rows.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Cameras: manual exposure, milliseconds (where the driver allows).
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub exposure_ms: Option<f64>,
+    /// Cameras: analogue gain in the driver's units (where the driver allows).
+    #[arg(long)]
+    pub gain: Option<i32>,
+}
+
+/// Latency percentiles (nearest rank) in milliseconds.
+fn percentile_ms(sorted_s: &[f64], p: f64) -> Option<f64> {
+    if sorted_s.is_empty() {
+        return None;
+    }
+    let rank = ((p / 100.0) * sorted_s.len() as f64).ceil().max(1.0) as usize;
+    Some(1e3 * sorted_s[rank.min(sorted_s.len()) - 1])
+}
+
+fn row(frame: &TrackedFrame) -> String {
+    let mut text = format!("{},{:.6}", frame.detections.index, frame.detections.time_s);
+    match &frame.track.outcome {
+        Ok(pose) => {
+            let t = pose.world_from_tool.translation.vector;
+            let q = pose.world_from_tool.rotation.quaternion();
+            let tip = pose.tip_in_world;
+            let _ = write!(
+                text,
+                ",{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{},{:.4}",
+                t.x, t.y, t.z, q.w, q.i, q.j, q.k, tip.x, tip.y, tip.z, pose.markers, pose.rms_mm
+            );
+        }
+        Err(_) => text.push_str(",,,,,,,,,,,,"),
+    }
+    let _ = write!(
+        text,
+        ",{},{}",
+        frame
+            .tip_std_mm
+            .map_or_else(String::new, |s| format!("{s:.4}")),
+        frame
+            .latency_s()
+            .map_or_else(String::new, |l| format!("{:.3}", 1e3 * l))
+    );
+    text
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let config = source_config(
+        &args.source,
+        args.fps,
+        args.seconds,
+        None,
+        args.exposure_ms,
+        args.gain,
+    );
+    let (rig, tool) = match (&args.source, &args.rig, &args.tool) {
+        (_, Some(rig), Some(tool)) => (read_rig(rig).rejected()?, read_tool(tool).rejected()?),
+        (SourceSpec::Sim(scenario), rig, tool) => {
+            let scene = teachcam::source::sim::scene(*scenario, &config.sim);
+            (
+                rig.as_deref()
+                    .map(read_rig)
+                    .transpose()
+                    .rejected()?
+                    .unwrap_or(scene.rig),
+                tool.as_deref()
+                    .map(read_tool)
+                    .transpose()
+                    .rejected()?
+                    .unwrap_or(scene.tool),
+            )
+        }
+        _ => anyhow::bail!("--rig and --tool are needed for a camera or recording source"),
+    };
+    let mut source = open_source(&args.source, &config).rejected()?;
+    let started = Instant::now();
+    let mut latencies = Vec::new();
+    let mut samples = Vec::new();
+    let mut posed = 0usize;
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    if args.out.is_none() {
+        writeln!(
+            out,
+            "frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,tip_std_mm,latency_ms"
+        )?;
+    }
+    let dropped = {
+        let mut stream = TrackStream::new(source.as_mut(), &rig, &tool, &PipelineConfig::default())
+            .rejected()?;
+        while !stop_requested() {
+            if args
+                .seconds
+                .is_some_and(|s| started.elapsed().as_secs_f64() >= s + 1.0)
+            {
+                break;
+            }
+            let Some(frame) = stream.next() else { break };
+            let frame = frame.rejected()?;
+            latencies.extend(frame.latency_s());
+            let index = teachcam::geometry::FrameIndex(frame.detections.index);
+            let sample = match &frame.track.outcome {
+                Ok(pose) => {
+                    posed += 1;
+                    let mut s = Sample::measured(index, frame.detections.time_s, *pose);
+                    s.tip_std_mm = frame.tip_std_mm;
+                    s
+                }
+                Err(_) => Sample::gap(index, frame.detections.time_s),
+            };
+            if args.out.is_none() {
+                writeln!(out, "{}", row(&frame))?;
+                out.flush()?;
+            }
+            samples.push(sample);
+        }
+        stream.stats().dropped_sets
+    };
+    if let Some(path) = &args.out {
+        write_trajectory(
+            path,
+            &Trajectory {
+                samples: samples.clone(),
+            },
+        )?;
+    }
+    latencies.sort_by(f64::total_cmp);
+    let p50 = percentile_ms(&latencies, 50.0);
+    let p99 = percentile_ms(&latencies, 99.0);
+    let seconds = started.elapsed().as_secs_f64();
+    if args.json {
+        let summary = serde_json::json!({
+            "frames": samples.len(),
+            "dropped": dropped,
+            "posed": posed,
+            "latency_ms_p50": p50,
+            "latency_ms_p99": p99,
+            "latency_ms_max": latencies.last().map(|l| 1e3 * l),
+            "seconds": seconds,
+            "source": args.source.to_string(),
+        });
+        writeln!(out, "{summary}")?;
+    } else {
+        let fmt = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.2} ms"));
+        eprintln!(
+            "{} frames ({posed} posed), {dropped} dropped in {seconds:.1} s; latency p50 {}, p99 {}",
+            samples.len(),
+            fmt(p50),
+            fmt(p99)
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_are_nearest_rank() {
+        let sorted: Vec<f64> = (1..=100).map(|i| f64::from(i) * 1e-3).collect();
+        assert_eq!(percentile_ms(&sorted, 50.0), Some(50.0));
+        assert_eq!(percentile_ms(&sorted, 99.0), Some(99.0));
+        assert_eq!(percentile_ms(&[], 50.0), None);
+    }
+}

@@ -1,0 +1,223 @@
+//! `teachcam record`: a recording folder from cameras, the simulator or another recording.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use anyhow::Context;
+use rayon::prelude::*;
+use teachcam::io::recording::{
+    TIMESTAMPS_FILE, frame_file_name, timestamps_text, write_frame_png, write_recording_info,
+};
+use teachcam::io::{create_folder, rig::write_rig, tool::write_tool, write_atomically};
+use teachcam::source::{FrameSource, SourceConfig, SourceSpec, open_source};
+
+use crate::Rejected;
+
+/// Set by Ctrl-C (SIGINT) or SIGTERM while `record` or `live` runs: they finish the set in
+/// hand and end cleanly.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Makes Ctrl-C and SIGTERM ask `record` and `live` to stop after the current frame set
+/// instead of ending the process. Called before any other handler is set (only one can be).
+pub fn catch_stop() {
+    let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::SeqCst));
+}
+
+/// True once Ctrl-C or SIGTERM arrived.
+pub fn stop_requested() -> bool {
+    STOP.load(Ordering::SeqCst)
+}
+
+/// Record a source's frames into a recording folder that every command reads.
+///
+/// Writes `<camera>/000000.png ...` (8- or 16-bit gray, as the camera gives), `timestamps.csv`
+/// (`camera,frame,time_s`: each frame's exposure time, seconds from the start) and
+/// `recording.json` (the rate). From the simulator it also writes the scenario's `rig.json` and
+/// `tool.json`, so that `teachcam track OUT --rig OUT/rig.json --tool OUT/tool.json` runs at
+/// once. Frames of different cameras are paired by trigger sequence where the cameras are
+/// triggered (the simulator, a recording) and by time otherwise (nearest within half a period);
+/// a set missing a camera is not written, so every camera keeps the same number of frames.
+///
+/// Ends at `--seconds` / `--frames`, at the end of a finite source, or on Ctrl-C: the set in hand
+/// is finished, every frame file is whole, the folder is valid, and a summary gives frames per
+/// camera, sets dropped (the writer fell behind the cameras) and the pairing mismatch.
+///
+/// Sources: `sim:paper` (the simulator's scenario, at `--fps`, 60 by default),
+/// `v4l2:/dev/video0,/dev/video2` (live cameras, named cam0, cam1, ...), `folder:REC` or a
+/// folder path (a recording; videos are decoded to PNG frames).
+///
+/// Example: `teachcam record --source sim:paper --seconds 2 --out rec`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Where frames come from: sim:SCENARIO, v4l2:DEVICE[,DEVICE...], folder:REC or a folder.
+    #[arg(long, default_value = "sim:paper", value_parser = parse_source)]
+    pub source: SourceSpec,
+    /// Output recording folder (created; must be empty if it exists).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Frames per second (simulator's rate, rate asked of cameras, a recording's rate).
+    #[arg(long, value_parser = crate::flags::fps)]
+    pub fps: Option<f64>,
+    /// Stop after this many seconds.
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub seconds: Option<f64>,
+    /// Stop after writing this many frame sets.
+    #[arg(long, value_parser = crate::flags::count)]
+    pub frames: Option<usize>,
+    /// Cameras: manual exposure, milliseconds (where the driver allows).
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub exposure_ms: Option<f64>,
+    /// Cameras: analogue gain in the driver's units (where the driver allows).
+    #[arg(long)]
+    pub gain: Option<i32>,
+}
+
+/// A `--source` value.
+pub fn parse_source(text: &str) -> Result<SourceSpec, String> {
+    text.parse()
+        .map_err(|e: teachcam::source::SourceError| e.to_string())
+}
+
+/// The source configuration common to `record` and `live`.
+pub fn source_config(
+    spec: &SourceSpec,
+    fps: Option<f64>,
+    seconds: Option<f64>,
+    frames: Option<usize>,
+    exposure_ms: Option<f64>,
+    gain: Option<i32>,
+) -> SourceConfig {
+    let mut config = SourceConfig {
+        fps,
+        ..SourceConfig::default()
+    };
+    config.v4l2.exposure_ms = exposure_ms;
+    config.v4l2.gain = gain;
+    let rate = match spec {
+        SourceSpec::Sim(_) => Some(fps.unwrap_or(config.sim.fps)),
+        _ => fps,
+    };
+    let from_seconds = seconds
+        .zip(rate)
+        .map(|(s, r)| (s * r).round().max(1.0) as usize);
+    config.max_sets = match (frames, from_seconds) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    };
+    config
+}
+
+/// Run the command.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    if args.out.exists() {
+        let empty = std::fs::read_dir(&args.out)
+            .with_context(|| format!("cannot read {}", args.out.display()))?
+            .next()
+            .is_none();
+        anyhow::ensure!(
+            empty,
+            "{}: the output folder exists and is not empty (record writes a new recording)",
+            args.out.display()
+        );
+    }
+    // `--frames` counts sets written, so the source is not capped by it: a set dropped
+    // because the writer fell behind does not count.
+    let config = source_config(
+        &args.source,
+        args.fps,
+        args.seconds,
+        None,
+        args.exposure_ms,
+        args.gain,
+    );
+    let mut source = open_source(&args.source, &config).rejected()?;
+    let names: Vec<String> = source.cameras().iter().map(|c| c.name.clone()).collect();
+    create_folder(&args.out)?;
+    for name in &names {
+        create_folder(&args.out.join(name))?;
+    }
+    if let SourceSpec::Sim(scenario) = &args.source {
+        let scene = teachcam::source::sim::scene(*scenario, &config.sim);
+        write_rig(&args.out.join("rig.json"), &scene.rig)?;
+        write_tool(&args.out.join("tool.json"), &scene.tool)?;
+    }
+    let summary = record(source.as_mut(), &names, args)?;
+    eprintln!("{summary}");
+    Ok(())
+}
+
+/// Writes sets until the source ends, a limit is reached or a stop is asked; then the
+/// timestamps and the rate. Returns the summary line.
+fn record(source: &mut dyn FrameSource, names: &[String], args: &Args) -> anyhow::Result<String> {
+    let started = Instant::now();
+    let mut times: BTreeMap<String, Vec<f64>> =
+        names.iter().map(|n| (n.clone(), Vec::new())).collect();
+    let mut written = 0usize;
+    let mut incomplete = 0usize;
+    let mut first_time_s = None;
+    while !stop_requested() {
+        if args
+            .seconds
+            .is_some_and(|s| started.elapsed().as_secs_f64() >= s)
+        {
+            break;
+        }
+        if args.frames.is_some_and(|f| written >= f) {
+            break;
+        }
+        let Some(set) = source.next_set() else { break };
+        let set = set.rejected()?;
+        if set.cameras.iter().any(Option::is_none) {
+            incomplete += 1;
+            continue;
+        }
+        let origin_s = *first_time_s.get_or_insert_with(|| {
+            set.cameras
+                .iter()
+                .flatten()
+                .map(|c| c.time_s)
+                .fold(f64::INFINITY, f64::min)
+        });
+        let frame = written;
+        set.cameras
+            .par_iter()
+            .zip(names)
+            .map(|(camera, name)| {
+                let Some(camera) = camera else { return Ok(()) };
+                let image = camera.decode(name, None).rejected()?;
+                write_frame_png(&args.out.join(name).join(frame_file_name(frame)), &image)?;
+                Ok(())
+            })
+            .collect::<anyhow::Result<()>>()?;
+        for (camera, name) in set.cameras.iter().zip(names) {
+            if let (Some(camera), Some(t)) = (camera, times.get_mut(name)) {
+                t.push(camera.time_s - origin_s);
+            }
+        }
+        written += 1;
+    }
+    let fps = source.fps();
+    write_atomically(
+        &args.out.join(TIMESTAMPS_FILE),
+        timestamps_text(&times).as_bytes(),
+    )?;
+    write_recording_info(&args.out, fps)?;
+    let stats = source.stats();
+    let per_camera: Vec<String> = names.iter().map(|n| format!("{n} {written}")).collect();
+    let unpaired: usize = stats.unpaired_frames.iter().sum();
+    Ok(format!(
+        "{written} frames per camera ({}) at {fps} Hz -> {}; dropped: {} sets (writer behind), {} incomplete sets skipped, {unpaired} frames unpaired; largest time spread within a set {:.3} ms{}",
+        per_camera.join(", "),
+        args.out.display(),
+        stats.dropped_sets,
+        incomplete,
+        1e3 * stats.max_pair_spread_s,
+        if stop_requested() {
+            " (stopped by signal)"
+        } else {
+            ""
+        }
+    ))
+}

@@ -1,0 +1,311 @@
+//! One camera's video file, decoded by FFmpeg into gray frames.
+//!
+//! `ffprobe` reads the stream's size, rate and bit depth (nothing is decoded before the size is
+//! checked against [`super::MAX_FRAME_PIXELS`]); then `ffmpeg` decodes the first video stream
+//! to raw gray samples on its standard output (`-f rawvideo -pix_fmt gray`, or `gray16le` for
+//! sources deeper than 8 bits), every decoded frame kept in order (`-fps_mode passthrough`, so
+//! a variable-rate file is neither padded nor thinned), and each frame is exactly
+//! `width × height` samples read from the pipe. Any container and codec FFmpeg reads works;
+//! there is no codec of our own.
+
+use std::io::{ErrorKind, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdout, Command, Stdio};
+use std::thread::JoinHandle;
+
+use image::{GrayImage, ImageBuffer};
+use serde::Deserialize;
+
+use super::{SourceError, check_frame_limit};
+use crate::io::recording::GrayFrame;
+
+/// What `ffprobe` says of a video's first video stream.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VideoInfo {
+    /// `(width, height)`, pixels.
+    pub size: (u32, u32),
+    /// Average frame rate, when the container states one.
+    pub fps: Option<f64>,
+    /// Frame count, when the container states one.
+    pub frames: Option<usize>,
+    /// More than 8 bits per sample (decoded to 16-bit gray).
+    pub deep: bool,
+}
+
+#[derive(Debug, Deserialize)]
+struct ProbeOutput {
+    #[serde(default)]
+    streams: Vec<ProbeStream>,
+}
+
+#[derive(Debug, Deserialize)]
+struct ProbeStream {
+    width: Option<u32>,
+    height: Option<u32>,
+    avg_frame_rate: Option<String>,
+    nb_frames: Option<String>,
+    bits_per_raw_sample: Option<String>,
+    pix_fmt: Option<String>,
+}
+
+fn run_error(program: &str, path: &Path, error: &std::io::Error) -> SourceError {
+    if error.kind() == ErrorKind::NotFound {
+        SourceError::FfmpegMissing {
+            program: program.to_string(),
+        }
+    } else {
+        SourceError::Video {
+            path: path.to_path_buf(),
+            message: format!("cannot run {program}: {error}"),
+        }
+    }
+}
+
+/// `"30000/1001"` as a number; `None` for `0/0` and the like.
+fn ratio(text: &str) -> Option<f64> {
+    let (n, d) = text.split_once('/').unwrap_or((text, "1"));
+    let value = n.trim().parse::<f64>().ok()? / d.trim().parse::<f64>().ok()?;
+    (value.is_finite() && value > 0.0).then_some(value)
+}
+
+/// Reads a video's stream information with `ffprobe`.
+///
+/// # Errors
+/// [`SourceError::FfmpegMissing`] without ffprobe; [`SourceError::Video`] when the file has no
+/// readable video stream; [`SourceError::TooLarge`] above the frame limit (`camera` names it).
+pub fn probe(path: &Path, camera: &str) -> Result<VideoInfo, SourceError> {
+    let output = Command::new("ffprobe")
+        .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
+        .arg("stream=width,height,avg_frame_rate,nb_frames,bits_per_raw_sample,pix_fmt")
+        .args(["-of", "json"])
+        .arg(path)
+        .stdin(Stdio::null())
+        .output()
+        .map_err(|e| run_error("ffprobe", path, &e))?;
+    let video_error = |message: String| SourceError::Video {
+        path: path.to_path_buf(),
+        message,
+    };
+    if !output.status.success() {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        return Err(video_error(format!(
+            "not a video FFmpeg can read: {}",
+            first_line(&stderr)
+        )));
+    }
+    let parsed: ProbeOutput = serde_json::from_slice(&output.stdout)
+        .map_err(|e| video_error(format!("unexpected ffprobe output: {e}")))?;
+    let stream = parsed
+        .streams
+        .into_iter()
+        .next()
+        .ok_or_else(|| video_error("no video stream".to_string()))?;
+    let (Some(width), Some(height)) = (stream.width, stream.height) else {
+        return Err(video_error("video stream without a frame size".to_string()));
+    };
+    if width == 0 || height == 0 {
+        return Err(video_error(format!("frame size {width}x{height}")));
+    }
+    check_frame_limit(camera, (width, height))?;
+    let bits = stream
+        .bits_per_raw_sample
+        .as_deref()
+        .and_then(|b| b.parse::<u32>().ok());
+    let pix_fmt = stream.pix_fmt.unwrap_or_default();
+    let deep =
+        bits.is_some_and(|b| b > 8) || ["10", "12", "14", "16"].iter().any(|d| pix_fmt.contains(d));
+    Ok(VideoInfo {
+        size: (width, height),
+        fps: stream.avg_frame_rate.as_deref().and_then(ratio),
+        frames: stream.nb_frames.as_deref().and_then(|n| n.parse().ok()),
+        deep,
+    })
+}
+
+fn first_line(text: &str) -> String {
+    text.lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty())
+        .unwrap_or("no message")
+        .to_string()
+}
+
+/// A running decoder of one video.
+#[derive(Debug)]
+pub struct VideoReader {
+    path: PathBuf,
+    info: VideoInfo,
+    child: Child,
+    stdout: ChildStdout,
+    stderr: Option<JoinHandle<String>>,
+    frames_read: usize,
+    ended: bool,
+}
+
+impl VideoReader {
+    /// Starts decoding a probed video.
+    ///
+    /// # Errors
+    /// [`SourceError::FfmpegMissing`] without ffmpeg, [`SourceError::Video`] otherwise.
+    pub fn start(path: &Path, info: VideoInfo) -> Result<Self, SourceError> {
+        let mut child = Command::new("ffmpeg")
+            .args(["-nostdin", "-v", "error", "-i"])
+            .arg(path)
+            .args([
+                "-map",
+                "0:v:0",
+                "-fps_mode",
+                "passthrough",
+                "-f",
+                "rawvideo",
+            ])
+            .args(["-pix_fmt", if info.deep { "gray16le" } else { "gray" }, "-"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| run_error("ffmpeg", path, &e))?;
+        let video_error = |message: &str| SourceError::Video {
+            path: path.to_path_buf(),
+            message: message.to_string(),
+        };
+        let stdout = child
+            .stdout
+            .take()
+            .ok_or_else(|| video_error("ffmpeg gave no output pipe"))?;
+        // Drained on its own thread so that a chatty decoder never blocks on a full pipe.
+        let stderr = child.stderr.take().map(|mut pipe| {
+            std::thread::spawn(move || {
+                let mut text = String::new();
+                let _ = pipe.read_to_string(&mut text);
+                text
+            })
+        });
+        Ok(Self {
+            path: path.to_path_buf(),
+            info,
+            child,
+            stdout,
+            stderr,
+            frames_read: 0,
+            ended: false,
+        })
+    }
+
+    /// The stream information.
+    #[must_use]
+    pub fn info(&self) -> &VideoInfo {
+        &self.info
+    }
+
+    /// Frames decoded so far.
+    #[must_use]
+    pub fn frames_read(&self) -> usize {
+        self.frames_read
+    }
+
+    /// The next frame; `None` at the end of the video.
+    ///
+    /// # Errors
+    /// [`SourceError::Video`] when FFmpeg fails or stops inside a frame, with its message.
+    pub fn next_frame(&mut self) -> Option<Result<GrayFrame, SourceError>> {
+        if self.ended {
+            return None;
+        }
+        let (width, height) = self.info.size;
+        let samples = width as usize * height as usize;
+        let bytes_per_sample = if self.info.deep { 2 } else { 1 };
+        let mut bytes = vec![0u8; samples * bytes_per_sample];
+        let mut filled = 0;
+        while filled < bytes.len() {
+            match self.stdout.read(&mut bytes[filled..]) {
+                Ok(0) => break,
+                Ok(n) => filled += n,
+                Err(e) if e.kind() == ErrorKind::Interrupted => {}
+                Err(e) => {
+                    self.ended = true;
+                    return Some(Err(self.error(&format!("reading ffmpeg's output: {e}"))));
+                }
+            }
+        }
+        if filled == 0 {
+            self.ended = true;
+            return match self.finish() {
+                Ok(()) => None,
+                Err(e) => Some(Err(e)),
+            };
+        }
+        if filled < bytes.len() {
+            self.ended = true;
+            let _ = self.finish();
+            return Some(Err(self.error(&format!(
+                "frame {} ends after {filled} of {} bytes",
+                self.frames_read,
+                bytes.len()
+            ))));
+        }
+        let frame = if self.info.deep {
+            let samples: Vec<u16> = bytes
+                .chunks_exact(2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]]))
+                .collect();
+            ImageBuffer::from_raw(width, height, samples).map(GrayFrame::Sixteen)
+        } else {
+            GrayImage::from_raw(width, height, bytes).map(GrayFrame::Eight)
+        };
+        self.frames_read += 1;
+        Some(frame.ok_or_else(|| self.error("frame buffer of the wrong length")))
+    }
+
+    fn error(&self, message: &str) -> SourceError {
+        SourceError::Video {
+            path: self.path.clone(),
+            message: message.to_string(),
+        }
+    }
+
+    /// Waits for ffmpeg and turns a failure into an error carrying its first message line.
+    fn finish(&mut self) -> Result<(), SourceError> {
+        let status = self
+            .child
+            .wait()
+            .map_err(|e| self.error(&format!("waiting for ffmpeg: {e}")))?;
+        let stderr = self
+            .stderr
+            .take()
+            .and_then(|h| h.join().ok())
+            .unwrap_or_default();
+        if status.success() {
+            Ok(())
+        } else {
+            Err(self.error(&format!(
+                "ffmpeg failed after {} frames: {}",
+                self.frames_read,
+                first_line(&stderr)
+            )))
+        }
+    }
+}
+
+impl Drop for VideoReader {
+    fn drop(&mut self) {
+        if !self.ended {
+            // Stopped early (an error elsewhere, Ctrl-C): end the decoder, reap it.
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_rates_read_as_ffprobe_writes_them() {
+        assert_eq!(ratio("30/1"), Some(30.0));
+        assert!((ratio("30000/1001").unwrap() - 29.97).abs() < 1e-3);
+        assert_eq!(ratio("0/0"), None);
+        assert_eq!(ratio("20"), Some(20.0));
+    }
+}
