@@ -12,6 +12,7 @@ use clap::{Parser, Subcommand};
 
 mod announce;
 mod cmd;
+mod flags;
 mod plot;
 mod progress;
 
@@ -75,8 +76,60 @@ impl<T, E: Into<anyhow::Error>> Rejected<T> for Result<T, E> {
     }
 }
 
+/// Prints clap's error on one line (its tip kept, its usage block left to `--help`) and exits 2;
+/// help and version print as clap does.
+#[expect(
+    clippy::print_stderr,
+    reason = "the usage error is the command's output"
+)]
+fn usage_error(error: &clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if matches!(
+        error.kind(),
+        ErrorKind::DisplayHelp
+            | ErrorKind::DisplayVersion
+            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+    ) {
+        error.exit();
+    }
+    let text = error.render().to_string();
+    let mut blocks = text.split("\n\n");
+    let mut line: Vec<&str> = blocks
+        .next()
+        .unwrap_or_default()
+        .lines()
+        .map(str::trim)
+        .collect();
+    line.extend(
+        blocks
+            .flat_map(str::lines)
+            .map(str::trim)
+            .filter(|l| l.starts_with("tip:")),
+    );
+    eprintln!("{}", line.join(" "));
+    ExitCode::from(2)
+}
+
+/// The message with control characters escaped (`\n`, `\u{1b}`), so that it stays one line
+/// whatever a file's labels hold.
+fn one_line(message: &str) -> String {
+    message
+        .chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(error) => return usage_error(&error),
+    };
     announce::set_quiet(cli.quiet);
     // On SIGINT/SIGTERM no output is left half written (each is renamed whole or not at all),
     // and the temporaries of those unfinished are removed. Without the handler (it cannot be
@@ -109,7 +162,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", one_line(&format!("{error:#}")));
             if error
                 .chain()
                 .any(|cause| cause.downcast_ref::<DataRejected>().is_some())

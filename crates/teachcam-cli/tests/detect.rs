@@ -132,7 +132,8 @@ fn bad_arguments_and_folders_are_refused() {
         "--min-roundness",
         "1.5",
     ]);
-    assert_eq!(run.status.code(), Some(1));
+    // A flag value wrong on its own is a usage error (issue 15's one exit-code rule).
+    assert_eq!(run.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&run.stderr).contains("--min-roundness"));
     let run = teachcam(&[
         "detect",

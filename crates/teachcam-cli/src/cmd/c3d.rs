@@ -53,7 +53,7 @@ pub struct ToolArgs {
     #[arg(long)]
     pub name: Option<String>,
     /// Marker sphere diameter written to the tool, millimetres.
-    #[arg(long, default_value_t = c3d::ToolFromDataConfig::default().marker_diameter_mm)]
+    #[arg(long, default_value_t = c3d::ToolFromDataConfig::default().marker_diameter_mm, value_parser = crate::flags::positive)]
     pub marker_diameter_mm: f64,
     /// The tool file to write.
     #[arg(short, long)]

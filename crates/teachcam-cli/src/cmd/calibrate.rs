@@ -58,7 +58,7 @@ pub struct PatternArgs {
     #[arg(long, value_parser = parse_inner)]
     pub inner: (usize, usize),
     /// Side of one square, millimetres.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub square: f64,
 }
 

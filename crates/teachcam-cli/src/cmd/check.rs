@@ -45,17 +45,17 @@ pub struct CellArgs {
     #[arg(long, default_value = "irb120")]
     pub robot: String,
     /// Work object in the robot's base frame, "x,y,z,qw,qx,qy,qz" (mm; RAPID's uframe).
-    #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0")]
+    #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0", value_parser = crate::flags::pose)]
     pub wobj: String,
     /// Tool centre point in the flange frame tool0, "x,y,z,qw,qx,qy,qz" (mm; RAPID's tframe).
-    #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0")]
+    #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0", value_parser = crate::flags::pose)]
     pub tcp: String,
     /// Tool file whose `tip_rotation` turns the TCP frame (without it, the TCP has the tool's
     /// orientation).
     #[arg(long)]
     pub tool: Option<PathBuf>,
     /// Fraction of each axis's maximum speed the path may use (0 < f <= 1).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = crate::flags::fraction)]
     pub speed_fraction: f64,
     /// Largest joint acceleration allowed on every axis, deg/s^2 (ABB publishes none; without
     /// this flag accelerations are reported, not judged).

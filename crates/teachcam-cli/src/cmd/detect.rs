@@ -61,7 +61,7 @@ pub struct DetectOptions {
     #[arg(long)]
     pub max_area: Option<usize>,
     /// Smallest roundness kept, 0..1 (1 = disc; two touching equal discs have 0.5).
-    #[arg(long, default_value_t = 0.75)]
+    #[arg(long, default_value_t = 0.75, value_parser = crate::flags::unit_interval)]
     pub min_roundness: f64,
     /// Camera rig (rig.json): size limits and sphere-centre correction per camera.
     #[arg(long)]
@@ -70,17 +70,17 @@ pub struct DetectOptions {
     #[arg(long, conflicts_with = "marker_diameter")]
     pub tool: Option<PathBuf>,
     /// Marker sphere diameter, millimetres.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::positive)]
     pub marker_diameter: Option<f64>,
     /// Nearest distance from a camera to a marker, millimetres (with --rig).
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
     pub near: f64,
     /// Farthest distance from a camera to a marker, millimetres (with --rig).
-    #[arg(long, default_value_t = 3000.0)]
+    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
     pub far: f64,
     /// Shot noise of the camera: noise variance per image unit of signal (1 / gain in
     /// electrons per unit). Only the predicted centre noise (`center_std_px`) uses it.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = crate::flags::non_negative)]
     pub shot_noise: f64,
 }
 
@@ -98,30 +98,27 @@ pub struct FrameBlobs {
 /// The detector configuration of each camera of the recording, in the recording's order.
 ///
 /// # Errors
-/// Rejected data when a file cannot be read, the rig lacks a camera of the recording, or a
-/// number is out of range.
+/// Rejected data when a file cannot be read or the rig lacks a camera of the recording; a
+/// usage error when a number is out of range.
 pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Vec<DetectConfig>> {
     if !(args.min_roundness.is_finite() && (0.0..=1.0).contains(&args.min_roundness)) {
         return Err(anyhow::anyhow!(
             "--min-roundness must be within 0..1, got {}",
             args.min_roundness
-        ))
-        .rejected();
+        ));
     }
     if !(args.near.is_finite() && args.far.is_finite() && 0.0 < args.near && args.near < args.far) {
         return Err(anyhow::anyhow!(
             "--near and --far must satisfy 0 < near < far, got {} and {}",
             args.near,
             args.far
-        ))
-        .rejected();
+        ));
     }
     if !(args.shot_noise.is_finite() && args.shot_noise >= 0.0) {
         return Err(anyhow::anyhow!(
             "--shot-noise must be a non-negative number, got {}",
             args.shot_noise
-        ))
-        .rejected();
+        ));
     }
     let diameter_mm = match (&args.tool, args.marker_diameter) {
         (Some(tool), _) => Some(read_tool(tool).rejected()?.marker_diameter_mm),
@@ -129,8 +126,7 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
         (None, Some(d)) => {
             return Err(anyhow::anyhow!(
                 "--marker-diameter must be a positive number of millimetres, got {d}"
-            ))
-            .rejected();
+            ));
         }
         (None, None) => None,
     };

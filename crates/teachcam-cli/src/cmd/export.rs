@@ -49,10 +49,10 @@ pub struct Args {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Path tolerance for dropping targets, millimetres.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = crate::flags::positive)]
     pub tolerance_mm: f64,
     /// Orientation tolerance for dropping targets, degrees.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = crate::flags::positive)]
     pub tolerance_deg: f64,
     /// Program name (default: the output file's name).
     #[arg(long)]

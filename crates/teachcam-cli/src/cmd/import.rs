@@ -52,13 +52,13 @@ pub struct Args {
     #[arg(long)]
     pub tool_out: Option<PathBuf>,
     /// Identification tolerance on marker distances, millimetres.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = crate::flags::positive)]
     pub identify_tolerance_mm: f64,
     /// Largest registration RMS of a pose, millimetres; worse frames become gaps.
-    #[arg(long, default_value_t = TrackMarkersConfig::default().max_registration_rms_mm)]
+    #[arg(long, default_value_t = TrackMarkersConfig::default().max_registration_rms_mm, value_parser = crate::flags::positive)]
     pub max_rms_mm: f64,
     /// Frames per second of a `markers` file (the other formats carry their rate).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::fps)]
     pub fps: Option<f64>,
     /// The trajectory CSV to write.
     #[arg(short, long)]

@@ -20,7 +20,7 @@ pub struct Args {
     /// Trajectory CSV of the pivoting tool (from `track`); frames without a pose are skipped.
     pub trajectory: PathBuf,
     /// Smallest rotation spread accepted about the least-turned axis, degrees.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, value_parser = crate::flags::positive)]
     pub min_rotation_deg: f64,
 }
 

@@ -33,10 +33,10 @@ pub struct Args {
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// A blob belongs to a marker whose mean centre is at most this far, pixels.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = crate::flags::positive)]
     pub match_radius: f64,
     /// Markers found in fewer frames are left out.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = crate::flags::count)]
     pub min_frames: usize,
     /// Detector options.
     #[command(flatten)]
@@ -49,8 +49,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(anyhow::anyhow!(
             "--match-radius must be a positive number of pixels, got {}",
             args.match_radius
-        ))
-        .rejected();
+        ));
     }
     let recording = open_recording(&args.recording, None).rejected()?;
     let configs = configs(&args.options, &recording)?;

@@ -42,7 +42,7 @@ pub struct Args {
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Work object in the robot's base frame, for the reach drawing (default: from run.json).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::pose)]
     pub wobj: Option<String>,
 }
 

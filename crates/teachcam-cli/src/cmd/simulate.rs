@@ -20,6 +20,16 @@ use crate::progress::Progress;
 /// at 30 Hz), `static` (the brush at rest, 100 frames), `occluded` (markers hidden in some views,
 /// glints, a glint touching a marker), `four-cameras`.
 ///
+/// Real failure modes (issue 14): `stereo-ir` (a real stereo IR recording's twin: two 640x480
+/// PS3 Eye cameras 2 m away, a hand-held 3-marker triangle at 50 Hz with motion blur, small
+/// saturated blobs with bloom, JPEG quality 55, uneven light, glints, streaks, mirror images in a
+/// steel plate, a hand partly hiding markers; 300 frames), `stereo-ir-miscal` (the same with
+/// `rig.json` 0.4 deg off in cam1; the true rig in `rig_true.json`, the error in
+/// `miscalibration.json`), `unsynced` (the paper's rig, cam1 +9.3 ms and cam2 -13.1 ms late, a
+/// fast stroke; the offsets in `time_offsets.json`), `four-cameras-hard` (four cameras with
+/// hidden and half-hidden markers, glints touching markers, streaks, the brush's mirror image
+/// in the work object, markers whose images touch).
+///
 /// `calibration` and `four-cameras-calibration` write chessboard views for `teachcam calibrate
 /// rig` instead: a 9x6 board with 50 mm squares lying on the work object (view `world`, the
 /// world frame) and held in placements around the working volume (until every camera has
@@ -31,8 +41,8 @@ use crate::progress::Progress;
 /// Example: `teachcam simulate --scenario paper --out rec`
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Scenario name: paper, static, occluded, four-cameras, calibration or
-    /// four-cameras-calibration.
+    /// Scenario name: paper, static, occluded, four-cameras, calibration,
+    /// four-cameras-calibration, stereo-ir, stereo-ir-miscal, unsynced or four-cameras-hard.
     #[arg(long, default_value = "paper")]
     pub scenario: String,
     /// Output folder (created; files in it are replaced).
@@ -42,16 +52,16 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Write only the first N frames of the scenario.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::count)]
     pub frames: Option<usize>,
     /// Calibration scenarios: board placements held around the working volume, besides the
     /// one on the work object (instead of `--images-per-camera`).
-    #[arg(long, conflicts_with = "images_per_camera")]
+    #[arg(long, conflicts_with = "images_per_camera", value_parser = crate::flags::count)]
     pub views: Option<usize>,
     /// Calibration scenarios: hold the board until every camera has this many images. The
     /// default, 40, brings every camera's rotation σ to about 0.006° on the simulated rigs
     /// (3σ within 0.02°; about 63 placements for the paper's rig, 93 for four cameras).
-    #[arg(long, default_value_t = IMAGES_PER_CAMERA_FOR_0_02_DEG)]
+    #[arg(long, default_value_t = IMAGES_PER_CAMERA_FOR_0_02_DEG, value_parser = crate::flags::count)]
     pub images_per_camera: usize,
 }
 

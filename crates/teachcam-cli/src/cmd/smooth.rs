@@ -32,10 +32,10 @@ pub struct Args {
     pub method: MethodName,
     /// Low-pass cut-off in Hz, or `auto`: residual analysis of x, y, z picks the cut-off of least
     /// estimated error against the motion (printed on stderr).
-    #[arg(long, default_value = "10")]
+    #[arg(long, default_value = "10", value_parser = crate::flags::cutoff)]
     pub cutoff: String,
     /// Low-pass order (of each of the two passes).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = crate::flags::count)]
     pub order: usize,
     /// What the cut-off means: `single-pass` (scipy's) or `winter` (the two-pass -3 dB point).
     #[arg(long, value_enum, default_value_t = Convention::SinglePass)]
@@ -44,13 +44,13 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Ends::NotAKnot)]
     pub ends: Ends,
     /// NURBS degree.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = crate::flags::count)]
     pub degree: usize,
     /// NURBS knot spacing, seconds.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = crate::flags::positive)]
     pub knot_spacing: f64,
     /// Largest Bezier run, samples (the cost grows as its cube).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = 2000, value_parser = crate::flags::count)]
     pub max_bezier_points: usize,
     /// Fill gaps of at most this many frames; longer gaps stay gaps.
     #[arg(long, default_value_t = 10)]

@@ -21,7 +21,7 @@ pub struct Args {
     /// Tool model (tool.json).
     pub tool: PathBuf,
     /// Identification tolerance on marker distances, millimetres (as `track` uses).
-    #[arg(long, default_value_t = IdentifyConfig::default().distance_tolerance_mm)]
+    #[arg(long, default_value_t = IdentifyConfig::default().distance_tolerance_mm, value_parser = crate::flags::positive)]
     pub tolerance_mm: f64,
 }
 

@@ -49,7 +49,7 @@ pub struct Args {
     #[arg(long)]
     pub diagnostics: Option<PathBuf>,
     /// Frames per second (overrides recording.json; default 30).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::flags::fps)]
     pub fps: Option<f64>,
     /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
     #[arg(long, default_value = "refined")]
@@ -58,16 +58,16 @@ pub struct Args {
     #[arg(long)]
     pub threshold: Option<u32>,
     /// Nearest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
     pub near: f64,
     /// Farthest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 3000.0)]
+    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
     pub far: f64,
     /// Largest distance of a blob from an epipolar line, pixels.
-    #[arg(long, default_value_t = TrackConfig::default().correspond.epipolar_tolerance_px)]
+    #[arg(long, default_value_t = TrackConfig::default().correspond.epipolar_tolerance_px, value_parser = crate::flags::positive)]
     pub epipolar_tolerance: f64,
     /// Tolerance on marker distances for identification, millimetres.
-    #[arg(long, default_value_t = TrackConfig::default().identify.distance_tolerance_mm)]
+    #[arg(long, default_value_t = TrackConfig::default().identify.distance_tolerance_mm, value_parser = crate::flags::positive)]
     pub distance_tolerance: f64,
 }
 
@@ -101,11 +101,12 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     check_identifiable(&tool, &config.identify)
         .with_context(|| format!("{}", args.tool.display()))
         .rejected()?;
-    if !(args.near > 0.0 && args.near < args.far) {
-        return Err(anyhow::anyhow!(
-            "--near and --far must satisfy 0 < near < far"
-        ))
-        .rejected();
+    if args.near >= args.far {
+        anyhow::bail!(
+            "--near {} and --far {}: near must be less than far",
+            args.near,
+            args.far
+        );
     }
     let mut recording = open_recording(&args.recording, args.fps).rejected()?;
     check_recording_against_rig(&recording, &rig).rejected()?;

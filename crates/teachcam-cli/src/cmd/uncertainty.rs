@@ -29,13 +29,13 @@ pub struct Args {
     pub tool: PathBuf,
     /// The tool's pose in the world, `x,y,z,qw,qx,qy,qz` (mm, unit quaternion): T_world_tool as
     /// in a trajectory row.
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::pose)]
     pub pose: String,
     /// Standard deviation of the marker centres, pixels per axis (the paper measured 0.15).
-    #[arg(long, default_value_t = 0.15)]
+    #[arg(long, default_value_t = 0.15, value_parser = crate::flags::positive)]
     pub pixel_noise: f64,
     /// Number of Monte Carlo trials.
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = 10_000, value_parser = crate::flags::trials)]
     pub trials: usize,
     /// Seed of the noise.
     #[arg(long, default_value_t = 1)]
@@ -49,7 +49,7 @@ pub struct Args {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let mut rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
-    let pose = parse_pose(&args.pose).context("--pose").rejected()?;
+    let pose = parse_pose(&args.pose).context("--pose")?;
     if let Some(name) = &args.camera_dropped {
         let before = rig.cameras.len();
         rig.cameras.retain(|c| &c.name != name);

@@ -27,16 +27,16 @@ pub struct Args {
     #[arg(long)]
     pub tool: PathBuf,
     /// Centre of the grid and the tool's orientation everywhere, `x,y,z,qw,qx,qy,qz`.
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::pose)]
     pub pose: String,
     /// Half the grid's side in x and y, millimetres.
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::non_negative)]
     pub half_width: f64,
     /// Grid spacing, millimetres.
-    #[arg(long, default_value_t = 25.0)]
+    #[arg(long, default_value_t = 25.0, value_parser = crate::flags::positive)]
     pub step: f64,
     /// Marker-centre noise, pixels per axis.
-    #[arg(long, default_value_t = 0.15)]
+    #[arg(long, default_value_t = 0.15, value_parser = crate::flags::positive)]
     pub pixel_noise: f64,
     /// Output CSV.
     #[arg(short, long)]
@@ -47,21 +47,13 @@ pub struct Args {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
-    let centre = parse_pose(&args.pose).context("--pose").rejected()?;
+    let centre = parse_pose(&args.pose).context("--pose")?;
     if !(args.step > 0.0 && args.half_width >= 0.0 && args.half_width / args.step <= 500.0) {
-        return Err(anyhow::anyhow!(
-            "--step must be positive and --half-width/--step at most 500 (got {} and {})",
-            args.step,
-            args.half_width
-        ))
-        .rejected();
-    }
-    if !(args.pixel_noise.is_finite() && args.pixel_noise > 0.0) {
-        return Err(anyhow::anyhow!(
-            "--pixel-noise must be positive, got {}",
-            args.pixel_noise
-        ))
-        .rejected();
+        anyhow::bail!(
+            "--half-width/--step must be at most 500 (got {} and {})",
+            args.half_width,
+            args.step
+        );
     }
     let steps = (args.half_width / args.step).floor() as i64;
     let c = centre.translation.vector;

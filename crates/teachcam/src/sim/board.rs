@@ -300,8 +300,7 @@ pub fn render_board<R: Rng>(
     let mut boxes = Vec::new();
     if let Some(b) = bounds {
         cast(camera, &sheet, b, &mut coverage);
-        let blur_margin = (4.0 * config.blur_sigma_px).ceil() as i64 + 1;
-        boxes.push(b.grown(blur_margin, width, height));
+        boxes.push(b.grown(config.psf_margin_px(), width, height));
     }
     BoardImage {
         image: form_image(&coverage, width, height, &boxes, config, rng),

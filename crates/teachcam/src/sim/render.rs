@@ -13,6 +13,7 @@ use nalgebra::Vector3;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 
+use super::optics::{Halo, Streak, UnevenLight};
 use crate::camera::Camera;
 use crate::geometry::{Pixel, Point3};
 
@@ -33,6 +34,25 @@ pub struct RenderConfig {
     pub read_noise_dn: f64,
     /// Shot-noise variance per DN of signal (1 / gain in electrons per DN).
     pub shot_noise_dn_per_dn: f64,
+    /// Bloom: the wide skirt of the point-spread function; `None` for the paper's sharp lens.
+    pub halo: Option<Halo>,
+    /// Ambient light gradient and vignetting; `None` for the paper's flat dark background.
+    pub uneven_light: Option<UnevenLight>,
+    /// JPEG quality each frame goes through (encode then decode); `None`: lossless frames.
+    /// Applied by [`super::render_frame`], after quantisation.
+    pub jpeg_quality: Option<u8>,
+}
+
+impl RenderConfig {
+    /// How far past a bright shape the point-spread function reaches, pixels: 4σ of its widest
+    /// part, plus one.
+    #[must_use]
+    pub fn psf_margin_px(&self) -> i64 {
+        let sigma = self
+            .halo
+            .map_or(self.blur_sigma_px, |h| h.sigma_px.max(self.blur_sigma_px));
+        (4.0 * sigma).ceil() as i64 + 1
+    }
 }
 
 impl Default for RenderConfig {
@@ -44,6 +64,9 @@ impl Default for RenderConfig {
             marker_dn: 180.0,
             read_noise_dn: 1.2,
             shot_noise_dn_per_dn: 0.04,
+            halo: None,
+            uneven_light: None,
+            jpeg_quality: None,
         }
     }
 }
@@ -171,8 +194,132 @@ pub fn render_view<R: Rng>(
     config: &RenderConfig,
     rng: &mut R,
 ) -> (GrayImage, Vec<SphereView>) {
+    render_exposure(
+        camera,
+        std::slice::from_ref(&spheres.to_vec()),
+        glints,
+        &[],
+        config,
+        rng,
+    )
+}
+
+/// Renders one camera's view over an exposure: `instants` holds the spheres (the same spheres
+/// in the same order) at equally spaced times of the exposure, and the image integrates them
+/// (motion blur), each instant weighted `1/instants.len()`. The truth (`SphereView`s) is that of
+/// the middle instant, the exposure's centre. Glints and streaks are still.
+pub fn render_exposure<R: Rng>(
+    camera: &Camera,
+    instants: &[Vec<Sphere>],
+    glints: &[Glint],
+    streaks: &[Streak],
+    config: &RenderConfig,
+    rng: &mut R,
+) -> (GrayImage, Vec<SphereView>) {
     let (width, height) = (camera.image_size.width, camera.image_size.height);
     let mut coverage = vec![0.0_f32; width as usize * height as usize];
+    let blur_margin = config.psf_margin_px();
+    let mut boxes = Vec::new();
+    let mut views = Vec::new();
+    let weight = 1.0 / instants.len().max(1) as f64;
+    for (k, spheres) in instants.iter().enumerate() {
+        let weighted: Vec<Sphere> = spheres
+            .iter()
+            .map(|s| Sphere {
+                radiance_dn: s.radiance_dn * weight,
+                ..*s
+            })
+            .collect();
+        let instant_views = cast_spheres(
+            camera,
+            &weighted,
+            config,
+            blur_margin,
+            &mut coverage,
+            &mut boxes,
+        );
+        if k == instants.len() / 2 {
+            views = instant_views;
+        }
+    }
+    let n = config.supersampling.max(1);
+    for glint in glints {
+        let Some(b) = PixelBox::around(glint.center, glint.radius_px + 1.0, width, height) else {
+            continue;
+        };
+        add_flat_shape(&mut coverage, width, b, n, glint.radiance_dn, |x, y| {
+            (x - glint.center.x).hypot(y - glint.center.y) <= glint.radius_px
+        });
+        boxes.push(b.grown(blur_margin, width, height));
+    }
+    for streak in streaks {
+        let half = 0.5 * streak.width_px + 1.0;
+        let (lo, hi) = (
+            Pixel::new(
+                streak.from.x.min(streak.to.x),
+                streak.from.y.min(streak.to.y),
+            ),
+            Pixel::new(
+                streak.from.x.max(streak.to.x),
+                streak.from.y.max(streak.to.y),
+            ),
+        );
+        let middle = Pixel::new(0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y));
+        let reach = 0.5 * (hi.x - lo.x).max(hi.y - lo.y) + half;
+        let Some(b) = PixelBox::around(middle, reach, width, height) else {
+            continue;
+        };
+        add_flat_shape(&mut coverage, width, b, n, streak.radiance_dn, |x, y| {
+            streak.distance_px(x, y) <= 0.5 * streak.width_px
+        });
+        boxes.push(b.grown(blur_margin, width, height));
+    }
+
+    let image = form_image(&coverage, width, height, &boxes, config, rng);
+    (image, views)
+}
+
+/// Adds `radiance_dn` times the covered fraction of every pixel of `b` to `coverage`, where
+/// `inside(x, y)` says whether a sub-pixel sample lies in the shape.
+fn add_flat_shape(
+    coverage: &mut [f32],
+    width: u32,
+    b: PixelBox,
+    n: u32,
+    radiance_dn: f64,
+    inside: impl Fn(f64, f64) -> bool,
+) {
+    let step = 1.0 / f64::from(n);
+    for row in b.y0..=b.y1 {
+        for col in b.x0..=b.x1 {
+            let mut hits = 0;
+            for sy in 0..n {
+                for sx in 0..n {
+                    let x = col as f64 - 0.5 + (f64::from(sx) + 0.5) * step;
+                    let y = row as f64 - 0.5 + (f64::from(sy) + 0.5) * step;
+                    if inside(x, y) {
+                        hits += 1;
+                    }
+                }
+            }
+            coverage[row as usize * width as usize + col as usize] +=
+                (radiance_dn * f64::from(hits) * step * step) as f32;
+        }
+    }
+}
+
+/// Ray-casts every sphere into `coverage` (the nearest hit of each sub-pixel ray decides),
+/// pushes each image's box grown by `blur_margin` onto `boxes`, and returns each sphere's
+/// truth in this view.
+fn cast_spheres(
+    camera: &Camera,
+    spheres: &[Sphere],
+    config: &RenderConfig,
+    blur_margin: i64,
+    coverage: &mut [f32],
+    boxes: &mut Vec<PixelBox>,
+) -> Vec<SphereView> {
+    let (width, height) = (camera.image_size.width, camera.image_size.height);
     let centers: Vec<Vector3<f64>> = spheres
         .iter()
         .map(|s| {
@@ -182,8 +329,6 @@ pub fn render_view<R: Rng>(
                 .coords
         })
         .collect();
-    let blur_margin = (4.0 * config.blur_sigma_px).ceil() as i64 + 1;
-    let mut boxes = Vec::new();
     let mut views = Vec::with_capacity(spheres.len());
     let n = config.supersampling.max(1);
     let step = 1.0 / f64::from(n);
@@ -272,32 +417,7 @@ pub fn render_view<R: Rng>(
             boxes.push(b.grown(blur_margin, width, height));
         }
     }
-
-    for glint in glints {
-        let Some(b) = PixelBox::around(glint.center, glint.radius_px + 1.0, width, height) else {
-            continue;
-        };
-        for row in b.y0..=b.y1 {
-            for col in b.x0..=b.x1 {
-                let mut hits = 0;
-                for sy in 0..n {
-                    for sx in 0..n {
-                        let x = col as f64 - 0.5 + (f64::from(sx) + 0.5) * step;
-                        let y = row as f64 - 0.5 + (f64::from(sy) + 0.5) * step;
-                        if (x - glint.center.x).hypot(y - glint.center.y) <= glint.radius_px {
-                            hits += 1;
-                        }
-                    }
-                }
-                coverage[row as usize * width as usize + col as usize] +=
-                    (glint.radiance_dn * f64::from(hits) * step * step) as f32;
-            }
-        }
-        boxes.push(b.grown(blur_margin, width, height));
-    }
-
-    let image = form_image(&coverage, width, height, &boxes, config, rng);
-    (image, views)
+    views
 }
 
 /// The sensor's image of a radiance map: `coverage` (DN above background per pixel, zero
@@ -311,7 +431,14 @@ pub(super) fn form_image<R: Rng>(
     config: &RenderConfig,
     rng: &mut R,
 ) -> GrayImage {
-    let blurred = blur_regions(coverage, width, height, boxes, config.blur_sigma_px);
+    let mut blurred = blur_regions(coverage, width, height, boxes, config.blur_sigma_px);
+    if let Some(halo) = config.halo {
+        let skirt = blur_regions(coverage, width, height, boxes, halo.sigma_px);
+        let core = 1.0 - halo.fraction;
+        for (b, s) in blurred.iter_mut().zip(&skirt) {
+            *b = (core * f64::from(*b) + halo.fraction * f64::from(*s)) as f32;
+        }
+    }
     // Noise: independent standard normal draws for every pixel, taken at random from a table of
     // draws made afresh for each view (a 2¹⁶-entry table sampled with replacement is
     // statistically indistinguishable from direct draws here and ten times faster).
@@ -319,7 +446,7 @@ pub(super) fn form_image<R: Rng>(
         .map(|_| StandardNormal.sample(rng))
         .collect();
     let mut image = GrayImage::new(width, height);
-    for (value, signal) in image.iter_mut().zip(&blurred) {
+    for (index, (value, signal)) in image.iter_mut().zip(&blurred).enumerate() {
         let draw = f64::from(table[(rng.next_u32() as usize) & (NOISE_TABLE_SIZE - 1)]);
         let signal = f64::from(*signal);
         let sigma = if signal == 0.0 {
@@ -328,9 +455,20 @@ pub(super) fn form_image<R: Rng>(
             (config.read_noise_dn * config.read_noise_dn + config.shot_noise_dn_per_dn * signal)
                 .sqrt()
         };
-        *value = (config.background_dn + signal + sigma * draw)
-            .round()
-            .clamp(0.0, 255.0) as u8;
+        let level = match config.uneven_light {
+            None => config.background_dn + signal,
+            Some(light) => {
+                let (col, row) = (index % width as usize, index / width as usize);
+                light.level(
+                    col as u32,
+                    row as u32,
+                    width,
+                    height,
+                    config.background_dn + signal,
+                )
+            }
+        };
+        *value = (level + sigma * draw).round().clamp(0.0, 255.0) as u8;
     }
     image
 }
