@@ -120,6 +120,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         far: 3000.0,
         epipolar_tolerance: TrackConfig::default().correspond.epipolar_tolerance_px,
         distance_tolerance: TrackConfig::default().identify.distance_tolerance_mm,
+        time_offsets: None,
+        time_offsets_out: None,
     })?;
     timed("detect + track", start);
     let raw = read_trajectory(&raw_path)?;

@@ -11,11 +11,14 @@ use teachcam::io::recording::{check_recording_against_rig, open_recording, read_
 use teachcam::io::trajectory::trajectory_csv;
 use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
 use teachcam::metrology::{first_order, residual_noise_px};
+use teachcam::sync::ResampleIssue;
 use teachcam::track::{FrameTrack, TrackConfig, Tracker};
 use teachcam::trajectory::Trajectory;
 
 use crate::Rejected;
 use crate::cmd::detect::detect_recording;
+
+mod time_offsets;
 
 /// Track the tool through a recording: its pose in every frame.
 ///
@@ -69,6 +72,17 @@ pub struct Args {
     /// Tolerance on marker distances for identification, millimetres.
     #[arg(long, default_value_t = TrackConfig::default().identify.distance_tolerance_mm, value_parser = crate::flags::positive)]
     pub distance_tolerance: f64,
+    /// Unsynchronised cameras: `auto` estimates each camera's time offset from the blobs (on
+    /// the first camera's clock; refused with a message when the tool barely moves), or give
+    /// them, seconds, `cam1=0.0093,cam2=-0.0131` (frame k of a camera exposed at k/fps +
+    /// offset) or as a JSON file written by `--time-offsets-out`. Blobs are moved to common
+    /// frame times before correspondence; frames where some could not be are listed in the
+    /// diagnostics' `resampling` column.
+    #[arg(long)]
+    pub time_offsets: Option<time_offsets::TimeOffsetsArg>,
+    /// Also write the offsets applied: `{"cam0": 0.0, "cam1": 0.0093, ...}`, seconds.
+    #[arg(long, requires = "time_offsets")]
+    pub time_offsets_out: Option<PathBuf>,
 }
 
 /// Run the command.
@@ -92,6 +106,11 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     let mut outputs = vec![Output::csv(&args.output)];
     outputs.extend(args.markers_out.as_deref().map(Output::csv));
     outputs.extend(args.diagnostics.as_deref().map(Output::csv));
+    outputs.extend(args.time_offsets_out.as_deref().map(|path| Output {
+        path,
+        format: "time offsets JSON",
+        extensions: &["json"],
+    }));
     check_outputs(&outputs, &[&args.rig, &args.tool])?;
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
@@ -149,6 +168,15 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         views[d.frame].insert(id, d.blobs.iter().map(|b| b.center).collect());
         noise[d.frame].extend(d.blobs.iter().map(|b| b.center_std_px));
     }
+    let synchronised = match &args.time_offsets {
+        Some(arg) => {
+            let synchronised = time_offsets::synchronise(arg, &rig, views, recording.fps)?;
+            crate::announce::say(&time_offsets::summary(&rig, &synchronised));
+            views = synchronised.frames.clone();
+            Some(synchronised)
+        }
+        None => None,
+    };
     let tracker = Tracker::new(&rig, &tool, config);
     let (mut trajectory, tracks) = tracker.track_all(&views, recording.fps);
     // The blobs' own σ hold image noise only; the markers' triangulation residuals show the
@@ -179,7 +207,12 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         outputs.add(path, markers_csv(&tracks).as_bytes())?;
     }
     if let Some(path) = &args.diagnostics {
-        outputs.add(path, diagnostics_csv(&tracks).as_bytes())?;
+        let issues = synchronised.as_ref().map(|s| s.issues.as_slice());
+        outputs.add(path, diagnostics_csv(&tracks, issues).as_bytes())?;
+    }
+    if let (Some(path), Some(synchronised)) = (&args.time_offsets_out, &synchronised) {
+        let json = time_offsets::offsets_json(&rig, &synchronised.offsets)?;
+        outputs.add(path, json.as_bytes())?;
     }
     let written = outputs.commit()?;
     Ok((trajectory, written))
@@ -210,11 +243,28 @@ fn markers_csv(tracks: &[FrameTrack]) -> String {
     out
 }
 
-fn diagnostics_csv(tracks: &[FrameTrack]) -> String {
+/// The per-frame diagnostics; with time offsets, a last column `resampling` lists what could
+/// not be moved to the common time, and such a frame's status is `degraded`.
+fn diagnostics_csv(tracks: &[FrameTrack], resampling: Option<&[Vec<ResampleIssue>]>) -> String {
     let mut out =
-        String::from("frame,status,reason,points,markers,views_per_marker,max_residual_px\n");
+        String::from("frame,status,reason,points,markers,views_per_marker,max_residual_px");
+    out.push_str(if resampling.is_some() {
+        ",resampling\n"
+    } else {
+        "\n"
+    });
     for (frame, track) in tracks.iter().enumerate() {
+        let issues: Vec<String> = resampling
+            .and_then(|r| r.get(frame))
+            .map(|issues| {
+                issues
+                    .iter()
+                    .map(|i| i.to_string().replace(',', ";"))
+                    .collect()
+            })
+            .unwrap_or_default();
         let (status, reason) = match &track.outcome {
+            Ok(_) if !issues.is_empty() => ("degraded", String::new()),
             Ok(_) => ("tracked", String::new()),
             Err(lost) => ("lost", lost.to_string().replace(',', ";")),
         };
@@ -228,13 +278,17 @@ fn diagnostics_csv(tracks: &[FrameTrack]) -> String {
             .iter()
             .map(|p| p.residual_px)
             .fold(0.0, f64::max);
-        let _ = writeln!(
+        let _ = write!(
             out,
             "{frame},{status},{reason},{},{},{},{max_residual:.4}",
             track.points.len(),
             track.labels.len(),
             views.join(" ")
         );
+        if resampling.is_some() {
+            let _ = write!(out, ",{}", issues.join(" | "));
+        }
+        out.push('\n');
     }
     out
 }

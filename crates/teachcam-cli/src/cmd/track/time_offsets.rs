@@ -88,7 +88,8 @@ fn given_offsets(text: &str, rig: &Rig) -> anyhow::Result<TimeOffsets> {
         return read_time_offsets_json(&json, rig)
             .with_context(|| format!("--time-offsets {}", path.display()));
     }
-    parse_time_offsets(text, rig).context("--time-offsets (expected auto, NAME=SECONDS,... or a JSON file)")
+    parse_time_offsets(text, rig)
+        .context("--time-offsets (expected auto, NAME=SECONDS,... or a JSON file)")
 }
 
 /// The contract's offsets JSON of the offsets applied.
