@@ -6,6 +6,7 @@ pub mod calibrate;
 pub mod check;
 pub mod demo;
 pub mod detect;
+pub mod doctor;
 pub mod export;
 pub mod import;
 pub mod pivot;

@@ -54,6 +54,7 @@ pub mod triangulate;
 pub mod identify;
 pub mod register;
 pub mod track;
+pub mod doctor;
 pub mod smooth;
 pub mod metrology;
 pub mod robot;

@@ -183,12 +183,12 @@ pub fn open_recording(root: &Path, fps_override: Option<f64>) -> Result<Recordin
             }
         }
     };
-    if !(fps.is_finite() && fps > 0.0) {
-        return Err(FileError::invalid(
-            root,
-            format!("fps must be a positive number, got {fps}"),
-        ));
-    }
+    let (field, named) = match fps_override {
+        Some(_) => ("--fps", root.to_path_buf()),
+        None => ("fps", root.join("recording.json")),
+    };
+    crate::trajectory::check_sample_rate_hz(field, fps)
+        .map_err(|e| FileError::invalid(&named, e.to_string()))?;
     Ok(Recording {
         root: root.to_path_buf(),
         fps,

@@ -1,0 +1,220 @@
+//! `teachcam doctor`: why a recording tracks badly, and what to do about it.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use teachcam::correspond::Views;
+use teachcam::detect::{Blob, DetectConfig};
+use teachcam::doctor::{DoctorConfig, Report, diagnose};
+use teachcam::geometry::CameraId;
+use teachcam::io::recording::{check_recording_against_rig, open_recording};
+use teachcam::io::{rig::read_rig, tool::read_tool};
+use teachcam::track::{TrackConfig, Tracker};
+
+use crate::Rejected;
+use crate::cmd::detect::detect_recording;
+
+/// Say where a recording's frames are lost, what the data shows, and what to do.
+///
+/// Detects every frame's blobs (keeping blobs of any roundness, to see what the detector's
+/// roundness cut drops), tracks them as `track` does with its defaults, and reports: lost
+/// frames per stage (detect, correspond, identify, register); per camera the blobs' diameters
+/// and roundness; per camera pair the epipolar distance of unambiguous blob matches (made
+/// without the tracker's tolerance); triangulation and registration residuals; and findings
+/// with advice: a camera that disagrees with the others (recalibrate it), a pair that
+/// disagrees, marker images too small (move closer), blobs less round than the cut (a
+/// `--min-roundness` value), a tool whose distances are not in the data.
+///
+/// Example: `teachcam doctor rec --rig rec/rig.json --tool rec/tool.json`
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Recording folder: one sub-folder of PNG frames per rig camera.
+    pub recording: PathBuf,
+    /// Camera rig (rig.json).
+    #[arg(long)]
+    pub rig: PathBuf,
+    /// Tool model (tool.json).
+    #[arg(long)]
+    pub tool: PathBuf,
+    /// Print the report as JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Nearest distance from a camera to a marker, millimetres.
+    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
+    pub near: f64,
+    /// Farthest distance from a camera to a marker, millimetres.
+    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
+    pub far: f64,
+}
+
+/// Run the command.
+#[expect(clippy::print_stdout, reason = "the report is the command's output")]
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let report = doctor(args)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", report_text(&report));
+    }
+    Ok(())
+}
+
+/// Detects, tracks and diagnoses the recording.
+///
+/// # Errors
+/// Rejected data when a file cannot be read or does not fit the rig; a usage error for
+/// `--near` ≥ `--far`.
+pub fn doctor(args: &Args) -> anyhow::Result<Report> {
+    if args.near >= args.far {
+        anyhow::bail!(
+            "--near {} and --far {}: near must be less than far",
+            args.near,
+            args.far
+        );
+    }
+    let rig = read_rig(&args.rig).rejected()?;
+    let tool = read_tool(&args.tool).rejected()?;
+    let mut recording = open_recording(&args.recording, None).rejected()?;
+    check_recording_against_rig(&recording, &rig).rejected()?;
+    recording.cameras = rig
+        .cameras
+        .iter()
+        .filter_map(|c| recording.camera(&c.name).cloned())
+        .collect();
+    let configs: Vec<DetectConfig> = rig
+        .cameras
+        .iter()
+        .map(|camera| DetectConfig {
+            min_roundness: 0.0,
+            ..DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far)
+        })
+        .collect();
+    let detections = detect_recording(&recording, &configs)?;
+    let kept_roundness = DetectConfig::default().min_roundness;
+    let frame_count = recording.frame_count();
+    let mut blobs: Vec<BTreeMap<CameraId, Vec<Blob>>> = vec![BTreeMap::new(); frame_count];
+    let mut views: Vec<Views> = vec![Views::new(); frame_count];
+    for d in &detections {
+        let Some(id) = rig.id_of(&d.camera) else {
+            continue;
+        };
+        let (Some(frame_blobs), Some(frame_views)) =
+            (blobs.get_mut(d.frame), views.get_mut(d.frame))
+        else {
+            continue;
+        };
+        frame_views.insert(
+            id,
+            d.blobs
+                .iter()
+                .filter(|b| b.roundness >= kept_roundness)
+                .map(|b| b.center)
+                .collect(),
+        );
+        frame_blobs.insert(id, d.blobs.clone());
+    }
+    let tracker = Tracker::new(&rig, &tool, TrackConfig::default());
+    let (_, tracks) = tracker.track_all(&views, recording.fps);
+    let config = DoctorConfig {
+        min_roundness: kept_roundness,
+        ..DoctorConfig::default()
+    };
+    Ok(diagnose(&rig, &tool, &blobs, &tracks, &config))
+}
+
+fn spread(s: Option<teachcam::doctor::Spread>, unit: &str) -> String {
+    s.map_or_else(
+        || "none".to_string(),
+        |s| {
+            format!(
+                "{:.2} {unit} (p10 {:.2}, p90 {:.2}, n {})",
+                s.median, s.p10, s.p90, s.count
+            )
+        },
+    )
+}
+
+/// The report as the screen shows it.
+fn report_text(report: &Report) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "frames: {} posed of {} ({:.0} %)",
+        report.posed,
+        report.frames,
+        100.0 * report.posed as f64 / report.frames.max(1) as f64
+    );
+    for (stage, count) in &report.lost {
+        let _ = writeln!(out, "  lost {count:>6}  {}", stage.meaning());
+    }
+    let _ = writeln!(out, "cameras:");
+    for c in &report.cameras {
+        let _ = writeln!(
+            out,
+            "  {}: blobs/frame {}; diameter {}; roundness {}; {:.0} % under the roundness cut{}",
+            c.camera,
+            c.blobs_per_frame.map_or(0.0, |s| s.median),
+            spread(c.diameter_px, "px"),
+            spread(c.roundness, ""),
+            100.0 * c.below_roundness_cut,
+            c.predicted_diameter_px.map_or(String::new(), |d| format!(
+                "; the marker should image {d:.1} px at {:.0} mm",
+                c.distance_mm.unwrap_or(0.0)
+            )),
+        );
+    }
+    let _ = writeln!(
+        out,
+        "camera pairs (epipolar distance of unambiguous matches):"
+    );
+    for p in &report.pairs {
+        let _ = writeln!(
+            out,
+            "  {}-{}: {}{}",
+            p.a,
+            p.b,
+            spread(p.epipolar_px, "px"),
+            if p.disagrees { "  DISAGREE" } else { "" }
+        );
+    }
+    let _ = writeln!(
+        out,
+        "triangulation residual: {}",
+        spread(report.triangulation_residual_px, "px")
+    );
+    let _ = writeln!(
+        out,
+        "registration residual: {}",
+        spread(report.registration_rms_mm, "mm")
+    );
+    if report.findings.is_empty() {
+        let _ = writeln!(out, "findings: none");
+    } else {
+        let _ = writeln!(out, "findings:");
+        for f in &report.findings {
+            let _ = writeln!(out, "  - {f}");
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_report_reads() {
+        let report = Report {
+            frames: 0,
+            posed: 0,
+            lost: BTreeMap::new(),
+            cameras: Vec::new(),
+            pairs: Vec::new(),
+            triangulation_residual_px: None,
+            registration_rms_mm: None,
+            findings: Vec::new(),
+        };
+        assert!(report_text(&report).contains("findings: none"));
+    }
+}
