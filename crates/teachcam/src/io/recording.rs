@@ -218,28 +218,51 @@ pub fn check_recording_against_rig(recording: &Recording, rig: &Rig) -> Result<(
     Ok(())
 }
 
-/// Decodes one frame, checking its size when `expected_size` is given.
+/// Most pixels a frame may have: the largest machine-vision sensors in use hold about 45
+/// megapixels (8192x5460); at 16 bits such a frame decodes to 90 MB, and frames decode in
+/// parallel, one per thread. A header claiming more is refused before anything is decoded.
+pub const MAX_FRAME_PIXELS: u64 = 50_000_000;
+
+/// Decodes one frame, checking its size when `expected_size` is given. The size is read from
+/// the PNG header first: a frame of the wrong size or over [`MAX_FRAME_PIXELS`] is refused
+/// before it is decoded.
 ///
 /// # Errors
-/// [`FileError`] naming the file: unreadable, not a PNG, truncated, or of the wrong size.
+/// [`FileError`] naming the file: unreadable, not a PNG, truncated, too large, or of the wrong
+/// size.
 pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<GrayFrame, FileError> {
     let bytes = std::fs::read(path).map_err(|source| FileError::Read {
         path: path.to_path_buf(),
         source,
     })?;
-    let image = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
-        .map_err(|e| FileError::invalid(path, format!("not a readable PNG: {e}")))?;
-    let frame = GrayFrame::from_dynamic(image);
-    if let Some((w, h)) = expected_size {
-        let (fw, fh) = frame.dimensions();
-        if (fw, fh) != (w, h) {
-            return Err(FileError::invalid(
-                path,
-                format!("image is {fw}x{fh}, the rig says {w}x{h}"),
-            ));
-        }
+    let not_png =
+        |e: image::ImageError| FileError::invalid(path, format!("not a readable PNG: {e}"));
+    let (fw, fh) =
+        image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png)
+            .into_dimensions()
+            .map_err(not_png)?;
+    if let Some((w, h)) = expected_size
+        && (fw, fh) != (w, h)
+    {
+        return Err(FileError::invalid(
+            path,
+            format!("image is {fw}x{fh}, the rig says {w}x{h}"),
+        ));
     }
-    Ok(frame)
+    let pixels = u64::from(fw) * u64::from(fh);
+    if pixels > MAX_FRAME_PIXELS {
+        return Err(FileError::invalid(
+            path,
+            format!(
+                "image is {fw}x{fh} ({:.0} megapixels), more than the {} a frame may have",
+                pixels as f64 / 1e6,
+                MAX_FRAME_PIXELS / 1_000_000
+            ),
+        ));
+    }
+    let image =
+        image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).map_err(not_png)?;
+    Ok(GrayFrame::from_dynamic(image))
 }
 
 /// Encodes an 8-bit gray image as PNG and writes it atomically.
