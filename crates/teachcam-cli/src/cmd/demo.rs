@@ -119,6 +119,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         near: 300.0,
         far: 3000.0,
         gates: super::track::GateFlags::default(),
+        time_offsets: None,
+        time_offsets_out: None,
     })?;
     timed("detect + track", start);
     let raw = read_trajectory(&raw_path)?;

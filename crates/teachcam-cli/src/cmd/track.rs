@@ -12,6 +12,7 @@ use teachcam::io::recording::{
 };
 use teachcam::io::trajectory::trajectory_text;
 use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
+use teachcam::sync::ResampleIssue;
 use teachcam::track::gates::{
     GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
@@ -32,6 +33,8 @@ const GATE_SAMPLE_FRAMES: usize = 300;
 
 /// Below this fraction of frames posed, `track` points to `teachcam doctor`.
 const DOCTOR_BELOW: f64 = 0.9;
+
+mod time_offsets;
 
 /// Track the tool through a recording: its pose in every frame.
 ///
@@ -98,6 +101,17 @@ pub struct Args {
     /// Gates fixed by hand (default: measured from the recording).
     #[command(flatten)]
     pub gates: GateFlags,
+    /// Unsynchronised cameras: `auto` estimates each camera's time offset from the blobs (on
+    /// the first camera's clock; refused with a message when the tool barely moves), or give
+    /// them, seconds, `cam1=0.0093,cam2=-0.0131` (frame k of a camera exposed at k/fps +
+    /// offset) or as a JSON file written by `--time-offsets-out`. Blobs are moved to common
+    /// frame times before correspondence; frames where some could not be are listed in the
+    /// diagnostics' `resampling` column.
+    #[arg(long)]
+    pub time_offsets: Option<time_offsets::TimeOffsetsArg>,
+    /// Also write the offsets applied: `{"cam0": 0.0, "cam1": 0.0093, ...}`, seconds.
+    #[arg(long, requires = "time_offsets")]
+    pub time_offsets_out: Option<PathBuf>,
 }
 
 /// The gates a user can fix; each one left out is measured from the recording.
@@ -252,6 +266,11 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         format: "JSON",
         extensions: &["json"],
     }));
+    outputs.extend(args.time_offsets_out.as_deref().map(|path| Output {
+        path,
+        format: "time offsets JSON",
+        extensions: &["json"],
+    }));
     check_outputs(&outputs, &[&args.rig, &args.tool])?;
     let overrides = args.gates.overrides();
     let rig = read_rig(&args.rig).rejected()?;
@@ -323,7 +342,16 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         }
     };
     let detections = detect_recording(&recording, &configs(min_roundness.value))?;
-    let (views, noise) = views_of(&rig, &detections, frame_count);
+    let (mut views, noise) = views_of(&rig, &detections, frame_count);
+    let synchronised = match &args.time_offsets {
+        Some(arg) => {
+            let synchronised = time_offsets::synchronise(arg, &rig, views, recording.fps)?;
+            crate::announce::say(&time_offsets::summary(&rig, &synchronised));
+            views = synchronised.frames.clone();
+            Some(synchronised)
+        }
+        None => None,
+    };
 
     // The other gates from a sample of the detected frames.
     let sampled: Vec<Views> = sample_frames(frame_count, GATE_SAMPLE_FRAMES)
@@ -343,6 +371,14 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         views.par_iter().map(|v| tracker.track_frame(v)).collect()
     };
     let mut trajectory = trajectory_from_tracks(&tracks, recording.fps);
+    if let Some(synchronised) = &synchronised {
+        // A frame whose blobs could not all be moved to the common time is degraded.
+        for (sample, issues) in trajectory.samples.iter_mut().zip(&synchronised.issues) {
+            if sample.status == Status::Ok && !issues.is_empty() {
+                sample.status = Status::Degraded;
+            }
+        }
+    }
     if trajectory.samples.iter().all(|s| s.pose.is_none()) {
         return Err(anyhow::Error::new(ToolNotFound(not_found_message(
             &tool.name, &tracks,
@@ -364,7 +400,12 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         outputs.add(path, markers_csv(&tracks).as_bytes())?;
     }
     if let Some(path) = &args.diagnostics {
-        outputs.add(path, diagnostics_csv(&tracks).as_bytes())?;
+        let issues = synchronised.as_ref().map(|s| s.issues.as_slice());
+        outputs.add(path, diagnostics_csv(&tracks, issues).as_bytes())?;
+    }
+    if let (Some(path), Some(synchronised)) = (&args.time_offsets_out, &synchronised) {
+        let json = time_offsets::offsets_json(&rig, &synchronised.offsets)?;
+        outputs.add(path, json.as_bytes())?;
     }
     if let Some(path) = &gates_json {
         let json = serde_json::to_string_pretty(&gates).context("gates as JSON")?;
@@ -414,11 +455,31 @@ fn markers_csv(tracks: &[FrameTrack]) -> String {
     out
 }
 
-fn diagnostics_csv(tracks: &[FrameTrack]) -> String {
+/// The per-frame diagnostics; with time offsets, a last column `resampling` lists what could
+/// not be moved to the common time, and such a frame's status is `degraded`.
+fn diagnostics_csv(tracks: &[FrameTrack], resampling: Option<&[Vec<ResampleIssue>]>) -> String {
     let mut out = String::from(
-        "frame,status,reason,points,markers,views_per_marker,max_residual_px,combinations\n",
+        "frame,status,reason,points,markers,views_per_marker,max_residual_px,combinations",
     );
+    out.push_str(if resampling.is_some() {
+        ",resampling\n"
+    } else {
+        "\n"
+    });
     for (frame, track) in tracks.iter().enumerate() {
+        let issues: Vec<String> = resampling
+            .and_then(|r| r.get(frame))
+            .map(|issues| {
+                issues
+                    .iter()
+                    .map(|i| i.to_string().replace(',', ";"))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let status = match track.status() {
+            Status::Ok if !issues.is_empty() => Status::Degraded,
+            status => status,
+        };
         let views: Vec<String> = track
             .views_per_marker()
             .iter()
@@ -429,16 +490,19 @@ fn diagnostics_csv(tracks: &[FrameTrack]) -> String {
             .iter()
             .map(|p| p.residual_px)
             .fold(0.0, f64::max);
-        let _ = writeln!(
+        let _ = write!(
             out,
-            "{frame},{},{},{},{},{},{max_residual:.4},{}",
-            track.status(),
+            "{frame},{status},{},{},{},{},{max_residual:.4},{}",
             track.reason().replace(',', ";"),
             track.points.len(),
             track.labels.len(),
             views.join(" "),
             track.combinations
         );
+        if resampling.is_some() {
+            let _ = write!(out, ",{}", issues.join(" | "));
+        }
+        out.push('\n');
     }
     out
 }
