@@ -181,3 +181,115 @@ fn r6_tiny_time_steps_and_absurd_frame_rates_are_refused_naming_the_range() {
         &["recording.json", "fps = ", "0.001..=100000 Hz"],
     );
 }
+
+#[test]
+fn r3_importers_place_rows_by_their_frame_numbers() {
+    let Some(dir) = repro("R3_vendor_dropped_row") else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let tool = dir.join("tool.json");
+    let import = |kind: &str, file: &str| {
+        let out = tmp.path().join(format!("{file}.csv"));
+        let o = teachcam(&[
+            "import",
+            kind,
+            path(&dir.join(file)),
+            "--tool",
+            path(&tool),
+            "-o",
+            path(&out),
+        ]);
+        assert!(o.status.success(), "{file}: {}", stderr(&o));
+        read_trajectory(&out).unwrap()
+    };
+    // Before: 119 rows, the row of frame 50 holding frame 51's pose (Frame/Time ignored), and
+    // swapped rows written swapped.
+    let motive = import("motive", "motive_row50_missing.csv");
+    let missing = import("qualisys", "qualisys_row51_missing.tsv");
+    let swapped = import("qualisys", "qualisys_rows_swapped.tsv");
+    // Motive numbers frames from 0, QTM from 1: the missing row is frame index 50 in both.
+    for (name, t, gap) in [("motive", &motive, 50), ("qualisys", &missing, 50)] {
+        assert_eq!(
+            t.len(),
+            120,
+            "{name}: one row per frame, the dropped one a gap"
+        );
+        assert!(
+            t.samples[gap].pose.is_none(),
+            "{name}: frame {gap} is a gap"
+        );
+        let posed = t.samples.iter().filter(|s| s.pose.is_some()).count();
+        assert_eq!(posed, 119, "{name}");
+    }
+    // The swapped export comes out in frame order: each of its frames is the same pose as in
+    // the export whose rows are in order (all but frame index 50, which that one lacks).
+    assert_eq!(swapped.len(), 120);
+    for (frame, (a, b)) in swapped.samples.iter().zip(&missing.samples).enumerate() {
+        assert_eq!(a.frame, b.frame);
+        if frame == 50 {
+            assert!(a.pose.is_some() && b.pose.is_none());
+            continue;
+        }
+        let (a, b) = (a.pose.unwrap(), b.pose.unwrap());
+        let d = (a.tip_in_world - b.tip_in_world).norm();
+        assert!(d < 1e-9, "frame {frame}: tips {d} mm apart");
+    }
+    // QTM frames 9 and 10 (indices 8 and 9) are swapped in the file: their poses differ, so
+    // the order matters.
+    let tip =
+        |t: &teachcam::trajectory::Trajectory, f: usize| t.samples[f].pose.unwrap().tip_in_world;
+    assert!((tip(&swapped, 8) - tip(&swapped, 9)).norm() > 1.0);
+}
+
+#[test]
+fn r4_calibrate_rig_refuses_a_camera_with_two_image_sizes() {
+    let Some(dir) = repro("R4_rig_calib_mixed_sizes") else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("rig.json");
+    // Before: exit 0, right's image_size [1280, 720] with cx 330.7, cy 251.4 (fitted on the
+    // 640x480 images).
+    let st = dir.join("st");
+    assert_refused(
+        &[
+            "calibrate",
+            "rig",
+            "--inner",
+            "9x6",
+            "--square",
+            "25",
+            path(&st),
+            "--world",
+            "01",
+            "-o",
+            path(&out),
+        ],
+        &out,
+        &["1280x720", "640x480", "right"],
+    );
+}
+
+#[test]
+fn r5_control_characters_in_c3d_labels_stay_on_one_line() {
+    let Some(dir) = repro("R5_c3d_label_newline") else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("t.csv");
+    // Before: the label bytes "t\nX" echoed raw, the message on two lines.
+    assert_refused(
+        &[
+            "import",
+            "c3d",
+            path(&dir.join("nl.c3d")),
+            "--markers",
+            "a,b,c",
+            "-o",
+            path(&out),
+        ],
+        &out,
+        &["nl.c3d"],
+    );
+}

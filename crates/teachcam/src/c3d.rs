@@ -354,7 +354,8 @@ pub fn read(bytes: &[u8]) -> Result<C3d, C3dError> {
     let declared_blocks = usize::from(section_head[2]).max(1);
     let section_end = (parameter_start + declared_blocks * BLOCK_BYTES).min(bytes.len());
     let parameters = parameters::parse(bytes, parameter_start, section_end, processor)?;
-    let (points, declared_frames) = read_points(bytes, &header, &parameters, processor)?;
+    let (points, declared_frames) =
+        read_points(bytes, &header, &parameters, processor, section_end)?;
     Ok(C3d {
         processor,
         header,
@@ -425,11 +426,15 @@ fn frame_range(header: &Header, parameters: &Parameters) -> (usize, usize) {
 }
 
 /// The marker trajectories and the frame count the file declares.
+///
+/// `parameter_end` is the byte where the parameter section ends: point data that would start
+/// before it would read parameters (or the header) as coordinates.
 fn read_points(
     bytes: &[u8],
     header: &Header,
     parameters: &Parameters,
     processor: Processor,
+    parameter_end: usize,
 ) -> Result<(PointData, usize), C3dError> {
     let marker_count = parameters
         .get("POINT", "USED")
@@ -464,6 +469,15 @@ fn read_points(
         return Err(C3dError::BadValue {
             field: "header word 9",
             reason: "data start block is 0 (blocks count from 1)".into(),
+        });
+    }
+    if (data_start_block - 1) * BLOCK_BYTES < parameter_end {
+        return Err(C3dError::BadValue {
+            field: "POINT:DATA_START",
+            reason: format!(
+                "block {data_start_block} lies inside the header or the parameter section (which ends at block {}); the point data start after it",
+                parameter_end.div_ceil(BLOCK_BYTES)
+            ),
         });
     }
     let (declared_frames, first_frame_number) = frame_range(header, parameters);

@@ -121,21 +121,144 @@ pub fn parse_motive_csv(path: &Path, text: &str) -> Result<PointData, FileError>
             "no Marker columns with Position X, Y, Z",
         ));
     }
+    let time_column = axes.get(1).is_some_and(|c| c.starts_with("Time"));
     let mut frames = Vec::new();
     for (i, row) in rows.iter().enumerate().skip(axis_row + 1) {
         if row.iter().all(|c| c.is_empty()) {
             continue;
         }
         let line = i + 1;
-        let frame = columns
+        let markers = columns
             .iter()
             .zip(&labels)
             .map(|(&c, label)| xyz_cells(path, line, row, c, label))
             .collect::<Result<Vec<_>, _>>()?;
-        frames.push(frame);
+        frames.push(ExportRow {
+            line,
+            frame: Some(frame_number(
+                path,
+                line,
+                row.first().copied().unwrap_or(""),
+            )?),
+            time_s: if time_column {
+                Some(time_cell(path, line, row.get(1).copied().unwrap_or(""))?)
+            } else {
+                None
+            },
+            markers,
+        });
     }
+    let frames = frames_by_number(path, frames, rate_hz, labels.len())?;
     PointData::new(labels, rate_hz, units.to_string(), &frames)
         .map_err(|e| FileError::invalid(path, e.to_string()))
+}
+
+/// One data row of a tracker's export: its line, the frame number and time it states (when
+/// the export has those columns) and its markers.
+struct ExportRow {
+    line: usize,
+    frame: Option<usize>,
+    time_s: Option<f64>,
+    markers: Vec<Option<PointSample>>,
+}
+
+/// Largest frames × markers grid an export may ask for (an hour at 100 Hz of a 25-marker
+/// tool; about 500 MB): a corrupted frame number must not exhaust memory.
+const MAX_GRID_SAMPLES: usize = 10_000_000;
+
+/// The rows of an export as one row per frame, placed by the frame numbers the file states:
+/// a frame number missing from the file is a gap there (all markers `None`), rows out of
+/// order are put in frame order, a frame number given twice is refused naming both lines, and
+/// a time that disagrees with its frame number by half a frame or more (`(time - time₀)·rate`
+/// against `frame - frame₀`) is refused. Rows without frame numbers are taken in file order.
+///
+/// # Errors
+/// [`FileError::InvalidLine`] naming the line.
+fn frames_by_number(
+    path: &Path,
+    mut rows: Vec<ExportRow>,
+    rate_hz: f64,
+    markers: usize,
+) -> Result<Vec<Vec<Option<PointSample>>>, FileError> {
+    if rows.iter().any(|r| r.frame.is_none()) {
+        return Ok(rows.into_iter().map(|r| r.markers).collect());
+    }
+    // Stable: of two rows with one frame number, the earlier line comes first.
+    rows.sort_by_key(|r| r.frame);
+    for pair in rows.windows(2) {
+        if pair[0].frame == pair[1].frame {
+            return Err(FileError::invalid_line(
+                path,
+                pair[1].line.max(pair[0].line),
+                format!(
+                    "frame {} appears again (also on line {})",
+                    pair[1].frame.unwrap_or(0),
+                    pair[1].line.min(pair[0].line)
+                ),
+            ));
+        }
+    }
+    let (Some(first), Some(last)) = (rows.first(), rows.last()) else {
+        return Ok(Vec::new());
+    };
+    let first_frame = first.frame.unwrap_or(0);
+    let span = last.frame.unwrap_or(0) - first_frame + 1;
+    if span.saturating_mul(markers.max(1)) > MAX_GRID_SAMPLES {
+        return Err(FileError::invalid_line(
+            path,
+            last.line,
+            format!(
+                "frames {first_frame}..={} x {markers} markers is more than {MAX_GRID_SAMPLES} samples",
+                first_frame + span - 1
+            ),
+        ));
+    }
+    if let Some(first_time_s) = first.time_s {
+        for row in &rows {
+            let (Some(frame), Some(time_s)) = (row.frame, row.time_s) else {
+                continue;
+            };
+            let expected_s = first_time_s + (frame - first_frame) as f64 / rate_hz;
+            if !((time_s - expected_s).abs() * rate_hz < 0.5) {
+                return Err(FileError::invalid_line(
+                    path,
+                    row.line,
+                    format!(
+                        "frame {frame} is at {time_s} s, but frame {first_frame} at {first_time_s} s and {rate_hz} Hz put it at {expected_s:.6} s"
+                    ),
+                ));
+            }
+        }
+    }
+    let mut grid = vec![vec![None; markers]; span];
+    for row in rows {
+        grid[row.frame.unwrap_or(0) - first_frame] = row.markers;
+    }
+    Ok(grid)
+}
+
+/// A frame number cell: a whole number (Motive and QTM write integers; `12.0` is taken).
+fn frame_number(path: &Path, line: usize, cell: &str) -> Result<usize, FileError> {
+    let value: f64 = cell.parse().unwrap_or(f64::NAN);
+    if value.is_finite() && value >= 0.0 && value.fract() == 0.0 && value < 1e15 {
+        Ok(value as usize)
+    } else {
+        Err(FileError::invalid_line(
+            path,
+            line,
+            format!("frame {cell:?} is not a frame number"),
+        ))
+    }
+}
+
+/// A time cell, seconds: a finite number.
+fn time_cell(path: &Path, line: usize, cell: &str) -> Result<f64, FileError> {
+    cell.parse()
+        .ok()
+        .filter(|t: &f64| t.is_finite())
+        .ok_or_else(|| {
+            FileError::invalid_line(path, line, format!("time {cell:?} is not a number"))
+        })
 }
 
 /// The cells of one CSV line, trimmed; a double-quoted cell may hold commas and `""` for a
@@ -272,7 +395,7 @@ pub fn parse_qualisys_tsv(path: &Path, text: &str) -> Result<PointData, FileErro
                 ),
             ));
         }
-        let frame = labels
+        let markers = labels
             .iter()
             .enumerate()
             .map(|(m, label)| {
@@ -281,10 +404,24 @@ pub fn parse_qualisys_tsv(path: &Path, text: &str) -> Result<PointData, FileErro
                 Ok(sample.filter(|s| s.position != Point3::origin()))
             })
             .collect::<Result<Vec<_>, FileError>>()?;
-        frames.push(frame);
+        let (frame, time_s) = if offset == 2 {
+            (
+                Some(frame_number(path, line_no, numbers[0])?),
+                Some(time_cell(path, line_no, numbers[1])?),
+            )
+        } else {
+            (None, None)
+        };
+        frames.push(ExportRow {
+            line: line_no,
+            frame,
+            time_s,
+            markers,
+        });
     }
     let rate_hz = rate_hz.ok_or_else(|| FileError::invalid(path, "no FREQUENCY line"))?;
     let labels = labels.ok_or_else(|| FileError::invalid(path, "no MARKER_NAMES line"))?;
+    let frames = frames_by_number(path, frames, rate_hz, labels.len())?;
     PointData::new(labels, rate_hz, "mm".into(), &frames)
         .map_err(|e| FileError::invalid(path, e.to_string()))
 }
@@ -301,10 +438,6 @@ pub fn read_markers_csv(path: &Path, rate_hz: f64) -> Result<PointData, FileErro
 
 /// Largest frame or marker number [`parse_markers_csv`] accepts.
 const MAX_MARKERS_CSV_INDEX: usize = 10_000_000;
-
-/// Largest frames × markers grid [`parse_markers_csv`] allocates (an hour at 100 Hz of a
-/// 25-marker tool; about 500 MB): a corrupted frame number must not exhaust memory.
-const MAX_MARKERS_CSV_SAMPLES: usize = 10_000_000;
 
 /// Parses the text of a `--markers-out` file; `path` only names the file in errors.
 ///
@@ -372,12 +505,10 @@ pub fn parse_markers_csv(path: &Path, text: &str, rate_hz: f64) -> Result<PointD
     }
     let frames = rows.iter().map(|r| r.0 + 1).max().unwrap_or(0);
     let markers = rows.iter().map(|r| r.1 + 1).max().unwrap_or(0);
-    if frames.saturating_mul(markers) > MAX_MARKERS_CSV_SAMPLES {
+    if frames.saturating_mul(markers) > MAX_GRID_SAMPLES {
         return Err(FileError::invalid(
             path,
-            format!(
-                "{frames} frames x {markers} markers is more than {MAX_MARKERS_CSV_SAMPLES} samples"
-            ),
+            format!("{frames} frames x {markers} markers is more than {MAX_GRID_SAMPLES} samples"),
         ));
     }
     let mut grid = vec![vec![None; markers]; frames];

@@ -1037,3 +1037,29 @@ fn a_tool_that_is_not_in_the_trial_is_never_found() {
         .count();
     assert_eq!(found, 0, "the brush 'found' in {found} frames");
 }
+
+/// Regression (issue 15): a file whose `POINT:DATA_START` points into its parameter section
+/// read the parameters as coordinates (2e12 mm). Every real file's data start after its
+/// parameters; moved onto the parameter section's first block, the file is refused.
+#[test]
+fn data_start_inside_the_parameters_is_refused() {
+    let Some(dir) = data_dir() else { return };
+    let bytes = std::fs::read(dir.join("ezc3d_Optotrak.c3d")).unwrap();
+    assert!(c3d::read(&bytes).is_ok());
+    // A parameter record: name length, group id, name, next offset (2), type (2 = int16),
+    // dimensions (0 = scalar), value.
+    let name = b"DATA_START";
+    let at = bytes
+        .windows(name.len())
+        .position(|w| w == name)
+        .expect("the file has POINT:DATA_START");
+    let value = at + name.len() + 4;
+    assert_eq!(bytes[value - 2], 2, "int16 parameter");
+    assert_eq!(bytes[value - 1], 0, "scalar");
+    let mut bad = bytes.clone();
+    let parameter_block = u16::from(bytes[0]);
+    bad[value..value + 2].copy_from_slice(&parameter_block.to_le_bytes());
+    let err = c3d::read(&bad).unwrap_err().to_string();
+    assert!(err.contains("POINT:DATA_START"), "{err}");
+    assert!(err.contains("parameter section"), "{err}");
+}

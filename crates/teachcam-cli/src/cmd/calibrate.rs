@@ -241,6 +241,32 @@ fn file_name(path: &Path) -> String {
     )
 }
 
+/// Keeps the first image's size in `size` and refuses an image of another size, naming both
+/// files: one camera's images are all of one size (its intrinsics hold for that size only).
+fn one_size(
+    size: &mut Option<(ImageSize, PathBuf)>,
+    image_size: ImageSize,
+    path: &Path,
+) -> anyhow::Result<()> {
+    match size {
+        Some((first, first_path)) if *first != image_size => Err(anyhow!(
+            "{}: {}x{} pixels, but {} is {}x{}",
+            path.display(),
+            image_size.width,
+            image_size.height,
+            first_path.display(),
+            first.width,
+            first.height
+        ))
+        .rejected(),
+        Some(_) => Ok(()),
+        None => {
+            *size = Some((image_size, path.to_path_buf()));
+            Ok(())
+        }
+    }
+}
+
 fn run_intrinsics(args: &IntrinsicsArgs) -> anyhow::Result<()> {
     let output = Output {
         path: &args.output,
@@ -256,22 +282,7 @@ fn run_intrinsics(args: &IntrinsicsArgs) -> anyhow::Result<()> {
     for (path, result) in found {
         match result {
             Ok((image_size, corners)) => {
-                if let Some((first, first_path)) = &size {
-                    if *first != image_size {
-                        return Err(anyhow!(
-                            "{}: {}x{} pixels, but {} is {}x{}",
-                            path.display(),
-                            image_size.width,
-                            image_size.height,
-                            first_path.display(),
-                            first.width,
-                            first.height
-                        ))
-                        .rejected();
-                    }
-                } else {
-                    size = Some((image_size, path.clone()));
-                }
+                one_size(&mut size, image_size, &path)?;
                 views.push(BoardView {
                     name: file_name(&path),
                     corners,
@@ -398,11 +409,11 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
             .filter(|p| p.is_file())
             .collect();
         images.sort();
-        let mut size = None;
+        let mut size: Option<(ImageSize, PathBuf)> = None;
         for (path, result) in find_all(&images, &board) {
             match result {
                 Ok((image_size, found)) => {
-                    size = Some(image_size);
+                    one_size(&mut size, image_size, &path)?;
                     let view = path
                         .file_stem()
                         .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
@@ -418,10 +429,24 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
         let views = views_of_camera(&observations, CameraId(c));
         let (camera, fixed) = if let Some(file) = known.get(name.as_str()) {
             let mut camera = read_camera(file).rejected()?.camera;
+            if let Some((image_size, path)) = &size
+                && camera.image_size != *image_size
+            {
+                return Err(anyhow!(
+                    "--intrinsics {name}={}: calibrated for {}x{} pixels, but {} is {}x{}",
+                    file.display(),
+                    camera.image_size.width,
+                    camera.image_size.height,
+                    path.display(),
+                    image_size.width,
+                    image_size.height
+                ))
+                .rejected();
+            }
             camera.name = name.clone();
             (camera, BundleIntrinsics::Fixed)
         } else {
-            let Some(image_size) = size else {
+            let Some((image_size, _)) = size else {
                 return Err(anyhow!("camera {name}: no image shows a complete board")).rejected();
             };
             let result =
