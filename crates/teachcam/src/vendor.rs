@@ -219,7 +219,8 @@ fn frames_by_number(
                 continue;
             };
             let expected_s = first_time_s + (frame - first_frame) as f64 / rate_hz;
-            if !((time_s - expected_s).abs() * rate_hz < 0.5) {
+            // Both times are finite (time_cell) and the rate positive.
+            if (time_s - expected_s).abs() * rate_hz >= 0.5 {
                 return Err(FileError::invalid_line(
                     path,
                     row.line,
