@@ -86,10 +86,12 @@ pub fn trials(text: &str) -> Result<usize, String> {
     }
 }
 
-/// A frame rate in Hz: finite and above zero; its upper bound is the recording's (see
-/// `--help` of the command).
+/// A frame rate in Hz: finite, above zero and within the sampling rates every file holds
+/// (`teachcam::trajectory::check_sample_rate_hz`, the check `recording.json` and trajectories
+/// get too).
 pub fn fps(text: &str) -> Result<f64, String> {
-    positive(text)
+    let value = positive(text)?;
+    teachcam::trajectory::check_sample_rate_hz("the frame rate", value).map_err(|e| e.to_string())
 }
 
 /// A whole number of at least 1.

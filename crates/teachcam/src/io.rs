@@ -119,14 +119,19 @@ pub(crate) fn parse_json<T: serde::de::DeserializeOwned>(
     serde_json::from_str(text).map_err(|e| FileError::invalid(path, format!("{e}")))
 }
 
-/// Serialises `value` as pretty JSON with a final newline and writes it atomically.
-pub(crate) fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), FileError> {
+/// `value` as pretty JSON with a final newline; `path` names the file it is for in errors.
+pub(crate) fn json_text<T: serde::Serialize>(path: &Path, value: &T) -> Result<String, FileError> {
     let mut text = serde_json::to_string_pretty(value).map_err(|e| FileError::Write {
         path: path.to_path_buf(),
         source: std::io::Error::other(e),
     })?;
     text.push('\n');
-    write_atomically(path, text.as_bytes())
+    Ok(text)
+}
+
+/// Serialises `value` as pretty JSON with a final newline and writes it atomically.
+pub(crate) fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), FileError> {
+    write_atomically(path, json_text(path, value)?.as_bytes())
 }
 
 #[cfg(test)]

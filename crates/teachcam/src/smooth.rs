@@ -32,7 +32,9 @@ use nalgebra::{UnitQuaternion, Vector3};
 use rayon::prelude::*;
 
 use crate::geometry::{FrameIndex, Point3, pose_from_parts};
-use crate::trajectory::{PoseSource, Sample, ToolPose, Trajectory};
+use crate::trajectory::{
+    PoseSource, Sample, SampleRateError, ToolPose, Trajectory, check_sample_rate_hz,
+};
 use butterworth::{Butterworth, FilterError};
 use spline::{CubicSpline, SplineEnds};
 
@@ -89,8 +91,8 @@ impl Method {
     };
 }
 
-/// What to do with a run too short for the method (the low-pass's padding, or fewer samples
-/// than NURBS control points).
+/// What to do with a run too short for the method (the low-pass's padding or its step
+/// response's settling length, or fewer samples than NURBS control points).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ShortRuns {
     /// Refuse the trajectory, naming the run's frames.
@@ -169,9 +171,21 @@ pub enum SmoothError {
         /// The mean step over the trajectory.
         mean_step_s: f64,
     },
+    /// The sampling rate the time steps imply is outside the accepted range.
+    #[error(transparent)]
+    SampleRate(#[from] SampleRateError),
     /// A pose number is NaN or infinite.
     #[error("frame {frame}: {field} is not finite")]
     NotFinite {
+        /// The frame.
+        frame: usize,
+        /// Which field.
+        field: &'static str,
+    },
+    /// A smoothed number came out NaN or infinite (a guard: every output is checked before
+    /// it is returned).
+    #[error("frame {frame}: smoothed {field} is not finite")]
+    NotFiniteResult {
         /// The frame.
         frame: usize,
         /// Which field.
@@ -247,7 +261,8 @@ pub struct Timing {
 /// Checks that frames are consecutive and times uniform; returns the sampling rate.
 ///
 /// # Errors
-/// [`SmoothError::Empty`], [`SmoothError::MissingRow`], [`SmoothError::NonUniformTime`].
+/// [`SmoothError::Empty`], [`SmoothError::MissingRow`], [`SmoothError::NonUniformTime`],
+/// [`SmoothError::SampleRate`].
 pub fn check_timing(
     trajectory: &Trajectory,
     time_step_tolerance: f64,
@@ -283,8 +298,9 @@ pub fn check_timing(
             });
         }
     }
+    let rate_hz = snapped_rate_hz(1.0 / mean_step_s, last.time_s - first.time_s);
     Ok(Timing {
-        sample_rate_hz: snapped_rate_hz(1.0 / mean_step_s, last.time_s - first.time_s),
+        sample_rate_hz: check_sample_rate_hz("the sampling rate of time_s", rate_hz)?,
     })
 }
 
@@ -333,6 +349,9 @@ pub fn smooth(trajectory: &Trajectory, config: &SmoothConfig) -> Result<Trajecto
             }
             Err(e) => return Err(e),
         }
+    }
+    if let Some((frame, field)) = first_not_finite(&out) {
+        return Err(SmoothError::NotFiniteResult { frame, field });
     }
     Ok(out)
 }
@@ -614,7 +633,7 @@ fn is_too_short(error: &SmoothError) -> bool {
     matches!(
         error,
         SmoothError::Filter {
-            cause: FilterError::TooShort { .. },
+            cause: FilterError::TooShort { .. } | FilterError::CutoffBelowRecord { .. },
             ..
         } | SmoothError::Nurbs {
             cause: bspline::BSplineError::Underdetermined { .. },
@@ -646,12 +665,17 @@ fn rename_frames(error: SmoothError, first: usize, last: usize) -> SmoothError {
 }
 
 fn check_finite(trajectory: &Trajectory) -> Result<(), SmoothError> {
+    match first_not_finite(trajectory) {
+        Some((frame, field)) => Err(SmoothError::NotFinite { frame, field }),
+        None => Ok(()),
+    }
+}
+
+/// The first frame and field holding a NaN or an infinity.
+fn first_not_finite(trajectory: &Trajectory) -> Option<(usize, &'static str)> {
     for s in &trajectory.samples {
         if !s.time_s.is_finite() {
-            return Err(SmoothError::NotFinite {
-                frame: s.frame.0,
-                field: "time_s",
-            });
+            return Some((s.frame.0, "time_s"));
         }
         let Some(p) = &s.pose else { continue };
         let t = p.world_from_tool.translation.vector;
@@ -665,13 +689,10 @@ fn check_finite(trajectory: &Trajectory) -> Result<(), SmoothError> {
             ),
         ];
         if let Some((field, _)) = checks.iter().find(|(_, ok)| !ok) {
-            return Err(SmoothError::NotFinite {
-                frame: s.frame.0,
-                field,
-            });
+            return Some((s.frame.0, field));
         }
     }
-    Ok(())
+    None
 }
 
 /// The tip in the tool frame, `world_from_tool⁻¹ · tip_in_world`, from the first sample with a

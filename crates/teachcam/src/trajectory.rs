@@ -146,6 +146,41 @@ impl Trajectory {
     }
 }
 
+/// Lowest sampling rate accepted, Hz: one frame every 1000 s. Below it frame times leave what
+/// a recording of a demonstration means (and at 1e-320 Hz they are infinite).
+pub const MIN_SAMPLE_RATE_HZ: f64 = 1e-3;
+
+/// Highest sampling rate accepted, Hz: ten times the fastest motion-capture cameras. The
+/// trajectory CSV writes `time_s` to the nanosecond, so a step of 10 µs is held to 5e-5 of
+/// itself, well within the smoother's uniformity tolerance of 1e-3.
+pub const MAX_SAMPLE_RATE_HZ: f64 = 1e5;
+
+/// A sampling rate outside [`MIN_SAMPLE_RATE_HZ`]`..=`[`MAX_SAMPLE_RATE_HZ`].
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error(
+    "{field} = {rate_hz} Hz is outside the accepted {MIN_SAMPLE_RATE_HZ}..={MAX_SAMPLE_RATE_HZ} Hz"
+)]
+pub struct SampleRateError {
+    /// Where the rate came from (`fps`, `--fps`, `the time step`...).
+    pub field: &'static str,
+    /// The rate, Hz.
+    pub rate_hz: f64,
+}
+
+/// The one check of a sampling rate (a recording's `fps`, a `--fps` flag, the rate a
+/// trajectory's time steps imply): finite and within
+/// [`MIN_SAMPLE_RATE_HZ`]`..=`[`MAX_SAMPLE_RATE_HZ`].
+///
+/// # Errors
+/// [`SampleRateError`] naming `field`.
+pub fn check_sample_rate_hz(field: &'static str, rate_hz: f64) -> Result<f64, SampleRateError> {
+    if (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&rate_hz) {
+        Ok(rate_hz)
+    } else {
+        Err(SampleRateError { field, rate_hz })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,5 +204,17 @@ mod tests {
         samples[4].pose = None;
         let t = Trajectory { samples };
         assert_eq!(t.segments(), vec![1..3, 5..8]);
+    }
+
+    #[test]
+    fn sample_rates_outside_the_range_are_refused_naming_the_field() {
+        for ok in [MIN_SAMPLE_RATE_HZ, 30.0, 2000.0, MAX_SAMPLE_RATE_HZ] {
+            assert_eq!(check_sample_rate_hz("fps", ok), Ok(ok));
+        }
+        for bad in [0.0, -30.0, 1e-320, 1e7, 1e12, f64::NAN, f64::INFINITY] {
+            let e = check_sample_rate_hz("fps", bad).unwrap_err();
+            assert!(e.to_string().starts_with("fps = "), "{e}");
+            assert!(e.to_string().contains("0.001..=100000 Hz"), "{e}");
+        }
     }
 }

@@ -302,9 +302,11 @@ fn bad_input_is_refused_with_the_frame() {
     for i in 10..13 {
         short.samples[i].pose = None;
     }
+    // 10 Hz: the 27 samples of frames 13..=39 hold its step response (20 samples to settle;
+    // 5 Hz would need 33 and be refused as below what the run can hold).
     let config = SmoothConfig {
         max_gap_frames: 0,
-        ..lowpass(5.0, 4)
+        ..lowpass(10.0, 4)
     };
     let too_short = message(&short, &config);
     assert!(

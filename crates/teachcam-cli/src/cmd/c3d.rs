@@ -7,6 +7,7 @@ use anyhow::Context as _;
 use serde::Serialize;
 use teachcam::c3d::{self, Processor};
 use teachcam::geometry::FrameIndex;
+use teachcam::io::{Output, check_outputs};
 
 use crate::Rejected as _;
 
@@ -126,6 +127,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 }
 
 fn run_tool(args: &ToolArgs) -> anyhow::Result<()> {
+    let output = Output {
+        path: &args.output,
+        format: "a tool file (JSON)",
+        extensions: &["json"],
+    };
+    check_outputs(&[output], &[&args.file])?;
     let points = c3d::read_file(&args.file).rejected()?.points;
     let named = |e: c3d::C3dError| {
         let e = anyhow::Error::from(e).context(args.file.display().to_string());
@@ -167,6 +174,14 @@ fn print_json<T: Serialize>(value: &T) -> anyhow::Result<()> {
 }
 
 fn run_export(args: &ExportArgs) -> anyhow::Result<()> {
+    let output = Output {
+        path: &args.output,
+        format: "C3D",
+        extensions: &["c3d"],
+    };
+    let mut inputs = vec![args.trajectory.as_path(), args.tool.as_path()];
+    inputs.extend(args.measured.as_deref());
+    check_outputs(&[output], &inputs)?;
     let trajectory = teachcam::io::trajectory::read_trajectory(&args.trajectory).rejected()?;
     let tool = teachcam::io::tool::read_tool(&args.tool).rejected()?;
     let points = match &args.measured {
@@ -182,6 +197,14 @@ fn run_export(args: &ExportArgs) -> anyhow::Result<()> {
         .with_context(|| args.trajectory.display().to_string())
         .rejected()?;
     c3d::write_file(&args.output, &points, EXPORT_RESIDUAL_STEP_MM)?;
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!(
+            "{} markers x {} frames",
+            points.marker_count(),
+            points.frame_count()
+        ),
+    );
     Ok(())
 }
 

@@ -18,6 +18,7 @@ use teachcam::io::camera_file::{
     read_camera, write_camera_json, write_opencv_yaml, write_ros_yaml,
 };
 use teachcam::io::rig::write_rig;
+use teachcam::io::{Output, check_outputs};
 
 use crate::Rejected;
 
@@ -241,6 +242,13 @@ fn file_name(path: &Path) -> String {
 }
 
 fn run_intrinsics(args: &IntrinsicsArgs) -> anyhow::Result<()> {
+    let output = Output {
+        path: &args.output,
+        format: "a camera file (JSON or YAML)",
+        extensions: &["json", "yaml", "yml"],
+    };
+    let inputs: Vec<&Path> = args.images.iter().map(PathBuf::as_path).collect();
+    check_outputs(&[output], &inputs)?;
     let board = board_of(&args.pattern)?;
     let found = find_all(&args.images, &board);
     let mut views = Vec::new();
@@ -343,10 +351,21 @@ fn run_intrinsics(args: &IntrinsicsArgs) -> anyhow::Result<()> {
             write_camera_json(&args.output, &camera, result.rms_px)?
         }
     }
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!("camera {} from {} images", camera.name, result.views.len()),
+    );
     Ok(())
 }
 
 fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
+    let output = Output {
+        path: &args.output,
+        format: "a rig file (JSON)",
+        extensions: &["json"],
+    };
+    let inputs: Vec<&Path> = args.intrinsics.iter().map(|(_, p)| p.as_path()).collect();
+    check_outputs(&[output], &inputs)?;
     let board = board_of(&args.pattern)?;
     // Camera sub-folders, sorted by name; each camera's images sorted by file name.
     let mut folders: Vec<PathBuf> = std::fs::read_dir(&args.images)
@@ -457,6 +476,10 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
         println!("warning: the bundle adjustment stopped at its iteration limit, not at a minimum");
     }
     write_rig(&args.output, &result.rig)?;
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!("{} cameras", result.rig.cameras.len()),
+    );
     Ok(())
 }
 

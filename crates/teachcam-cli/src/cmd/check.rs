@@ -208,6 +208,11 @@ pub fn summary(report: &CheckReport, gaps: usize, robot: &str) -> String {
 /// Run the command.
 #[expect(clippy::print_stdout, reason = "the report is the command's output")]
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if let Some(path) = &args.joints_out {
+        let mut inputs = vec![args.trajectory.as_path()];
+        inputs.extend(args.cell.tool.as_deref());
+        teachcam::io::check_outputs(&[teachcam::io::Output::csv(path)], &inputs)?;
+    }
     let resolved = resolve(&args.trajectory, &args.cell)?;
     let report = check_path(
         &resolved.model,
@@ -217,6 +222,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     if let Some(path) = &args.joints_out {
         teachcam::io::write_atomically(path, joints_csv(&report).as_bytes())?;
+        crate::announce::wrote(
+            std::slice::from_ref(path),
+            &format!("joints of {} frames", report.frames.len()),
+        );
     }
     print!("{}", summary(&report, resolved.gaps, &resolved.model.name));
     if report.passes() {

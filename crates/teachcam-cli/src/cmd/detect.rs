@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use teachcam::camera::Rig;
 use teachcam::detect::{Blob, CenterMethod, DetectConfig, Threshold, detect};
 use teachcam::io::recording::{GrayFrame, Recording, open_recording, read_frame};
-use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::io::{Output, check_outputs, rig::read_rig, tool::read_tool, write_atomically};
 
 use crate::Rejected;
 use crate::progress::Progress;
@@ -260,16 +260,22 @@ fn csv_field(s: &str) -> String {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let mut inputs: Vec<&Path> = Vec::new();
+    inputs.extend(args.options.rig.as_deref());
+    inputs.extend(args.options.tool.as_deref());
+    check_outputs(&[Output::csv(&args.output)], &inputs)?;
     let recording = open_recording(&args.recording, None).rejected()?;
     let configs = configs(&args.options, &recording)?;
     let frames = detect_recording(&recording, &configs)?;
     write_atomically(&args.output, csv_text(&frames).as_bytes())?;
     let blobs: usize = frames.iter().map(|f| f.blobs.len()).sum();
-    eprintln!(
-        "{blobs} blobs in {} frames x {} cameras -> {}",
-        recording.frame_count(),
-        recording.cameras.len(),
-        args.output.display()
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!(
+            "{blobs} blobs in {} frames x {} cameras",
+            recording.frame_count(),
+            recording.cameras.len()
+        ),
     );
     Ok(())
 }

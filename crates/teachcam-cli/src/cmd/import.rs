@@ -6,8 +6,9 @@ use std::path::{Path, PathBuf};
 use anyhow::bail;
 use teachcam::c3d::{self, MarkerSelection, PointData, ToolFromDataConfig, TrackMarkersConfig};
 use teachcam::identify::IdentifyConfig;
-use teachcam::io::tool::{read_tool, write_tool};
-use teachcam::io::trajectory::write_trajectory;
+use teachcam::io::tool::{read_tool, tool_json};
+use teachcam::io::trajectory::trajectory_csv;
+use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::vendor;
 
 use crate::{DataRejected, Rejected as _};
@@ -120,12 +121,24 @@ pub fn read_points(format: Format, file: &Path, fps: Option<f64>) -> anyhow::Res
 
 /// Run `teachcam import`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let mut outputs = vec![Output::csv(&args.output)];
+    if let Some(path) = &args.tool_out {
+        outputs.push(Output {
+            path,
+            format: "a tool file (JSON)",
+            extensions: &["json"],
+        });
+    }
+    let mut inputs = vec![args.file.as_path()];
+    inputs.extend(args.tool.as_deref());
+    check_outputs(&outputs, &inputs)?;
     let points = read_points(args.format, &args.file, args.fps)?;
     let in_file = |e: c3d::C3dError| {
         let named = anyhow::Error::from(e).context(args.file.display().to_string());
         anyhow::Error::new(DataRejected(named))
     };
     let columns = points.marker_indices(&args.markers).map_err(in_file)?;
+    let outputs = OutputSet::new();
     let (tool, selection) = match (&args.tool, columns.is_empty()) {
         (None, true) => bail!("give --tool, --markers or both (see --help)"),
         (Some(path), true) => {
@@ -155,7 +168,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 c3d::tool_from_data(&points, &columns, args.static_frames.clone(), tip, &config)
                     .map_err(in_file)?;
             if let Some(out) = &args.tool_out {
-                write_tool(out, &built.tool)?;
+                outputs.add(out, tool_json(out, &built.tool)?.as_bytes())?;
             }
             (built.tool, MarkerSelection::Labels(columns))
         }
@@ -164,18 +177,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         max_registration_rms_mm: args.max_rms_mm,
     };
     let trajectory = c3d::track_markers(&points, &tool, &selection, &config).map_err(in_file)?;
-    write_trajectory(&args.output, &trajectory)?;
+    outputs.add(&args.output, trajectory_csv(&trajectory).as_bytes())?;
+    let written = outputs.commit()?;
     let posed: Vec<f64> = trajectory
         .samples
         .iter()
         .filter_map(|s| s.pose.map(|p| p.rms_mm))
         .collect();
     let worst = posed.iter().copied().fold(0.0, f64::max);
-    eprintln!(
-        "{}: {} of {} frames with a pose, registration RMS up to {worst:.3} mm",
-        args.output.display(),
-        posed.len(),
-        trajectory.len()
+    crate::announce::wrote(
+        &written,
+        &format!(
+            "{} of {} frames with a pose, registration RMS up to {worst:.3} mm",
+            posed.len(),
+            trajectory.len()
+        ),
     );
     Ok(())
 }

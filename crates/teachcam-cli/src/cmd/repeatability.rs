@@ -5,7 +5,6 @@ use std::path::PathBuf;
 
 use teachcam::detect::{MarkerSpread, RepeatabilityConfig, repeatability};
 use teachcam::io::recording::open_recording;
-use teachcam::io::write_atomically;
 
 use crate::Rejected;
 use crate::cmd::detect::{DetectOptions, FrameBlobs, configs, detect_recording};
@@ -51,6 +50,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.match_radius
         ));
     }
+    let mut outputs = vec![teachcam::io::Output::csv(&args.output)];
+    if let Some(plot) = &args.plot {
+        outputs.push(teachcam::io::Output {
+            path: plot,
+            format: "an SVG plot",
+            extensions: &["svg"],
+        });
+    }
+    teachcam::io::check_outputs(&outputs, &[])?;
     let recording = open_recording(&args.recording, None).rejected()?;
     let configs = configs(&args.options, &recording)?;
     let frames = detect_recording(&recording, &configs)?;
@@ -88,20 +96,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             );
         }
     }
+    let outputs = teachcam::io::OutputSet::new();
+    outputs.add(&args.output, text.as_bytes())?;
     if let Some(plot) = &args.plot {
-        write_atomically(plot, svg_plot(&per_camera, &args.options).as_bytes())?;
+        outputs.add(plot, svg_plot(&per_camera, &args.options).as_bytes())?;
     }
-    write_atomically(&args.output, text.as_bytes())?;
+    let written = outputs.commit()?;
     let markers: usize = per_camera.iter().map(|(_, s)| s.len()).sum();
     let all: Vec<f64> = per_camera
         .iter()
         .flat_map(|(_, s)| s.iter().map(|m| m.std_px))
         .collect();
     let rms = (all.iter().map(|v| v * v).sum::<f64>() / all.len().max(1) as f64).sqrt();
-    eprintln!(
-        "{markers} static markers, centre std {rms:.4} px (rms over markers, method {}) -> {}",
-        args.options.method,
-        args.output.display()
+    crate::announce::wrote(
+        &written,
+        &format!(
+            "{markers} static markers, centre std {rms:.4} px (rms over markers, method {})",
+            args.options.method
+        ),
     );
     Ok(())
 }

@@ -71,13 +71,21 @@ struct Figure {
 /// Run the command.
 pub fn run(args: &Args) -> Result<()> {
     let output = write_report(args)?;
-    eprintln!("wrote {}", output.display());
+    crate::announce::wrote(&[output], "");
     Ok(())
 }
 
 /// Writes the report; returns where.
 pub fn write_report(args: &Args) -> Result<PathBuf> {
     let dir = &args.run_dir;
+    if let Some(output) = &args.output {
+        let output = teachcam::io::Output {
+            path: output,
+            format: "an HTML page",
+            extensions: &["html", "htm"],
+        };
+        teachcam::io::check_outputs(&[output], &[])?;
+    }
     let raw = read_trajectory(&dir.join("raw.csv")).rejected()?;
     let smoothed = optional(&dir.join("smoothed.csv"), read_trajectory)?;
     let recording = dir.join("recording");

@@ -8,6 +8,7 @@ use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::io::{Output, check_outputs};
 use teachcam::smooth::spline::SplineEnds;
 use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, smooth, suggest_cutoff};
+use teachcam::trajectory::PoseSource;
 
 use crate::Rejected;
 
@@ -19,8 +20,10 @@ use crate::Rejected;
 /// and longer gaps stay gaps.
 ///
 /// For positions, `--method lowpass --cutoff HZ --order N` gives the numbers of
-/// `scipy.signal.filtfilt(*scipy.signal.butter(N, HZ, fs=fs), x)` with scipy's default padding;
-/// HZ is the cut-off of one pass, as in scipy (the zero-phase result is at -6 dB there).
+/// `scipy.signal.sosfiltfilt(scipy.signal.butter(N, HZ, fs=fs, output="sos"), x)`, which are
+/// those of `filtfilt(*butter(N, HZ, fs=fs), x)` wherever that form is stable; HZ is the
+/// cut-off of one pass, as in scipy (the zero-phase result is at -6 dB there). A cut-off whose
+/// step response outlasts the record, or that double precision cannot hold, is refused.
 ///
 /// Example: `teachcam smooth raw.csv --method lowpass --cutoff 10 -o smooth.csv`
 #[derive(Debug, clap::Args)]
@@ -55,8 +58,9 @@ pub struct Args {
     /// Fill gaps of at most this many frames; longer gaps stay gaps.
     #[arg(long, default_value_t = 10)]
     pub max_gap: usize,
-    /// Runs too short for the method (the low-pass's padding is 3·(order+1) samples): `reject`
-    /// the file, or make them `gap`s (empty rows).
+    /// Runs too short for the method (the low-pass's padding is 3·(order+1) samples, and its
+    /// step response must settle within 1 % inside the run): `reject` the file, or make them
+    /// `gap`s (empty rows).
     #[arg(long, value_enum, default_value_t = Short::Reject)]
     pub short_runs: Short,
     /// Tool file giving the tip; without it the tip is recovered from the trajectory.
@@ -172,9 +176,19 @@ pub fn run(args: &Args) -> Result<()> {
         .with_context(|| format!("{}", args.input.display()))
         .rejected()?;
     write_trajectory(&args.output, &smoothed)?;
+    let poses = smoothed.samples.iter().filter(|s| s.pose.is_some()).count();
+    let filled = smoothed
+        .samples
+        .iter()
+        .filter(|s| s.pose.is_some() && s.source == PoseSource::Filled)
+        .count();
     crate::announce::wrote(
         std::slice::from_ref(&args.output),
-        &format!("{} frames", smoothed.len()),
+        &format!(
+            "{} frames, {poses} with a pose ({filled} filled), {} gaps",
+            smoothed.len(),
+            smoothed.len() - poses
+        ),
     );
     Ok(())
 }

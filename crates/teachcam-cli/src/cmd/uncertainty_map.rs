@@ -45,6 +45,10 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    teachcam::io::check_outputs(
+        &[teachcam::io::Output::csv(&args.output)],
+        &[&args.rig, &args.tool],
+    )?;
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
     let centre = parse_pose(&args.pose).context("--pose")?;
@@ -75,11 +79,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     write_atomically(&args.output, csv.as_bytes())?;
     let tracked = cells.iter().filter(|c| c.tip_rms_mm.is_some()).count();
-    eprintln!(
-        "{} of {} grid positions trackable; wrote {}",
-        tracked,
-        cells.len(),
-        args.output.display()
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!("{tracked} of {} grid positions trackable", cells.len()),
     );
     Ok(())
 }

@@ -12,7 +12,7 @@ use std::path::Path;
 use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
 
-use super::{FileError, parse_json, read_text, write_json};
+use super::{FileError, json_text, parse_json, read_text, write_atomically};
 use crate::geometry::{Point3, Quat, pose_from_parts};
 use crate::tool::Tool;
 
@@ -58,6 +58,14 @@ pub fn read_tool(path: &Path) -> Result<Tool, FileError> {
 /// # Errors
 /// [`FileError::Write`].
 pub fn write_tool(path: &Path, tool: &Tool) -> Result<(), FileError> {
+    write_atomically(path, tool_json(path, tool)?.as_bytes())
+}
+
+/// The text of a tool file (for an [`super::OutputSet`]); `path` names the file in errors.
+///
+/// # Errors
+/// [`FileError::Write`] when the tool cannot be serialised.
+pub fn tool_json(path: &Path, tool: &Tool) -> Result<String, FileError> {
     let rotation = tool.tool_from_tcp.rotation;
     let file = ToolFile {
         name: tool.name.clone(),
@@ -70,7 +78,7 @@ pub fn write_tool(path: &Path, tool: &Tool) -> Result<(), FileError> {
         tip: tool.tool_from_tcp.translation.vector.into(),
         tip_rotation: (rotation.angle() > 0.0).then(|| Quat::from_rotation(&rotation).to_array()),
     };
-    write_json(path, &file)
+    json_text(path, &file)
 }
 
 #[cfg(test)]

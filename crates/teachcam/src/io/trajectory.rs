@@ -48,7 +48,8 @@ pub fn trajectory_csv(trajectory: &Trajectory) -> String {
     out.push('\n');
     let quaternions = trajectory.continuous_quaternions();
     for (sample, q) in trajectory.samples.iter().zip(quaternions) {
-        let _ = write!(out, "{},{:.6}", sample.frame.0, sample.time_s);
+        // Nanoseconds: distinct and uniform up to `trajectory::MAX_SAMPLE_RATE_HZ`.
+        let _ = write!(out, "{},{:.9}", sample.frame.0, sample.time_s);
         match (&sample.pose, q) {
             (Some(p), Some(q)) => {
                 let t = p.world_from_tool.translation.vector;

@@ -40,7 +40,8 @@ pub struct ResidualAnalysis {
 const BAND_POINTS: usize = 2000;
 
 /// Residual analysis of `values` for a Butterworth of `order` (single-pass cut-offs, as
-/// [`Butterworth::filtfilt`]), on `steps` cut-offs evenly spaced up to 90 % of Nyquist.
+/// [`Butterworth::filtfilt`]), on `steps` cut-offs evenly spaced up to 90 % of Nyquist; those
+/// whose step response outlasts the record ([`FilterError::CutoffBelowRecord`]) are left out.
 ///
 /// # Errors
 /// [`FilterError`] when the series is too short for the filter's padding, not finite, or the
@@ -53,15 +54,20 @@ pub fn residual_analysis(
 ) -> Result<ResidualAnalysis, FilterError> {
     let steps = steps.max(10);
     let nyquist_hz = sample_rate_hz / 2.0;
-    let cutoffs_hz: Vec<f64> = (1..=steps)
-        .map(|k| 0.9 * nyquist_hz * k as f64 / steps as f64)
-        .collect();
+    let mut cutoffs_hz = Vec::with_capacity(steps);
     let mut residual_rms = Vec::with_capacity(steps);
     let mut left_in_residual = Vec::with_capacity(steps);
     let mut passed = Vec::with_capacity(steps);
-    for &fc in &cutoffs_hz {
+    for fc in (1..=steps).map(|k| 0.9 * nyquist_hz * k as f64 / steps as f64) {
         let filter = Butterworth::lowpass(order, fc, sample_rate_hz)?;
-        let filtered = filter.filtfilt(values)?;
+        // Cut-offs too low for the record's length are not candidates; the highest one is
+        // always held (its step response settles within a few samples) unless the record is
+        // shorter than the padding, which is refused.
+        let filtered = match filter.filtfilt(values) {
+            Err(FilterError::CutoffBelowRecord { .. }) if fc < 0.9 * nyquist_hz => continue,
+            other => other?,
+        };
+        cutoffs_hz.push(fc);
         let sum: f64 = values
             .iter()
             .zip(&filtered)
@@ -78,6 +84,7 @@ pub fn residual_analysis(
         left_in_residual.push(w / BAND_POINTS as f64);
         passed.push(p / BAND_POINTS as f64);
     }
+    let steps = cutoffs_hz.len();
     let noise_band: Vec<usize> = (0..steps)
         .filter(|&k| cutoffs_hz[k] >= 0.5 * nyquist_hz)
         .collect();
