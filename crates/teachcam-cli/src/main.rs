@@ -3,8 +3,9 @@
 //! Each subcommand lives in `cmd/<name>.rs` as an `Args` struct (its doc comments are the help
 //! text) and a `run` function: parse → resolve files → call the library → write outputs whole.
 //! Exit status: 0 success, 1 input data rejected, 2 usage (flags and flag values, output paths)
-//! or internal error, 130 interrupted (SIGINT or SIGTERM: the temporaries of unfinished outputs
-//! are removed first; ARCHITECTURE.md, "Outputs and exit codes").
+//! or internal error, 3 the tool was not found in any frame (`track`, `import`), 130
+//! interrupted (SIGINT or SIGTERM: the temporaries of unfinished outputs are removed first;
+//! ARCHITECTURE.md, "Outputs and exit codes").
 
 use std::process::ExitCode;
 
@@ -175,6 +176,11 @@ fn main() -> ExitCode {
         Err(error) => {
             eprintln!("error: {}", one_line(&format!("{error:#}")));
             if error
+                .chain()
+                .any(|cause| cause.downcast_ref::<cmd::track::ToolNotFound>().is_some())
+            {
+                ExitCode::from(3)
+            } else if error
                 .chain()
                 .any(|cause| cause.downcast_ref::<DataRejected>().is_some())
             {

@@ -68,7 +68,7 @@ fn simulate(dir: &Path) -> PathBuf {
 }
 
 #[test]
-fn track_writes_its_three_files_or_none() {
+fn track_writes_its_four_files_or_none() {
     let dir = tempfile::tempdir().unwrap();
     let rec = simulate(dir.path());
     let (rig, tool) = (rec.join("rig.json"), rec.join("tool.json"));
@@ -96,13 +96,19 @@ fn track_writes_its_three_files_or_none() {
     assert!(stderr(&o).contains("nodir/diag.csv"), "{}", stderr(&o));
     assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
     assert_eq!(names(dir.path()), ["rec"]);
-    // All three, and the success message names them.
+    // All four (the gates beside the diagnostics), and the success message names them.
     let diagnostics = dir.path().join("diag.csv");
     let o = track(&diagnostics);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         names(dir.path()),
-        ["diag.csv", "markers.csv", "out.csv", "rec"]
+        [
+            "diag.csv",
+            "diag.gates.json",
+            "markers.csv",
+            "out.csv",
+            "rec"
+        ]
     );
     let said = stderr(&o);
     assert!(

@@ -14,6 +14,10 @@
 //! take a label); a point still unlabelled takes the one free marker whose distances it
 //! reproduces. A tool whose own distances could be mistaken
 //! for one another is refused before tracking starts ([`check_identifiable`]).
+//!
+//! Refusing what is not there: when another labelling as large as the chosen one is also
+//! consistent, the points do not say which is right; [`Identification::rival`] holds it, and
+//! the tracker makes such a frame a gap instead of guessing.
 
 use std::collections::BTreeMap;
 
@@ -157,6 +161,9 @@ pub struct Identification {
     pub labels: BTreeMap<MarkerId, usize>,
     /// Measured points that are no marker of this tool.
     pub unassigned: Vec<usize>,
+    /// Another labelling with as many markers, also consistent: the points cannot tell the
+    /// two apart (`None` when the choice has a margin).
+    pub rival: Option<BTreeMap<MarkerId, usize>>,
 }
 
 /// Labels measured points with the tool's markers by the paper's voting, then keeps only a
@@ -176,12 +183,16 @@ pub fn identify(model: &[Point3], points: &[Point3], config: &IdentifyConfig) ->
             votes
         })
         .collect();
-    let mut labels = consistent_labels(model, points, &votes, config);
+    let (mut labels, rival) = consistent_labels(model, points, &votes, config);
     complete(model, points, config, &mut labels);
     let unassigned = (0..points.len())
         .filter(|i| !labels.values().any(|p| p == i))
         .collect();
-    Identification { labels, unassigned }
+    Identification {
+        labels,
+        unassigned,
+        rival,
+    }
 }
 
 /// Search nodes [`consistent_labels`] may visit: far more than a tool of up to ten markers among
@@ -193,13 +204,16 @@ const SEARCH_BUDGET: usize = 200_000;
 /// votes first (the paper's "the first tries are the more probable"), and then no label;
 /// among equally large sets the one with more votes wins. A stray that matched one distance by
 /// chance can tie a vote, but cannot join a consistent set. Fewer than two labels carry no
-/// evidence, so they give none.
+/// evidence, so they give none. The second result is an equally large consistent set that
+/// labels some point differently, when there is one.
+type Labels = BTreeMap<MarkerId, usize>;
+
 fn consistent_labels(
     model: &[Point3],
     points: &[Point3],
     votes: &[Vec<usize>],
     config: &IdentifyConfig,
-) -> BTreeMap<MarkerId, usize> {
+) -> (Labels, Option<Labels>) {
     let best_vote = |i: usize| votes[i].iter().copied().max().unwrap_or(0);
     let mut order: Vec<usize> = (0..points.len()).filter(|i| best_vote(*i) > 0).collect();
     order.sort_by_key(|i| (std::cmp::Reverse(best_vote(*i)), *i));
@@ -220,6 +234,7 @@ fn consistent_labels(
         tolerance: f64,
         best: Vec<(usize, usize)>,
         best_votes: usize,
+        runner_up: Vec<(usize, usize)>,
         nodes: usize,
     }
     impl Search<'_> {
@@ -242,8 +257,10 @@ fn consistent_labels(
             }
             let Some(&point) = self.order.get(depth) else {
                 if (current.len(), votes) > (self.best.len(), self.best_votes) {
-                    self.best = current.clone();
+                    self.runner_up = std::mem::replace(&mut self.best, current.clone());
                     self.best_votes = votes;
+                } else if current.len() > self.runner_up.len() {
+                    self.runner_up = current.clone();
                 }
                 return;
             };
@@ -267,17 +284,20 @@ fn consistent_labels(
         tolerance: config.distance_tolerance_mm,
         best: Vec::new(),
         best_votes: 0,
+        runner_up: Vec::new(),
         nodes: 0,
     };
     search.visit(0, &mut Vec::new(), 0);
     if search.best.len() < 2 {
-        return BTreeMap::new();
+        return (BTreeMap::new(), None);
     }
-    search
-        .best
-        .iter()
-        .map(|&(point, marker)| (MarkerId(marker), point))
-        .collect()
+    let labels = |set: &[(usize, usize)]| -> Labels {
+        set.iter()
+            .map(|&(point, marker)| (MarkerId(marker), point))
+            .collect()
+    };
+    let rival = (search.runner_up.len() == search.best.len()).then(|| labels(&search.runner_up));
+    (labels(&search.best), rival)
 }
 
 /// Identifies several tools in one cloud of points: each tool's markers by

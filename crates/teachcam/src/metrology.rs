@@ -169,7 +169,7 @@ pub fn monte_carlo(
         return Err(MetrologyError::TooFewTrials);
     }
     let views = check_inputs(rig, tool, world_from_tool, noise_px)?;
-    let tracker = Tracker::new(rig, tool, *config);
+    let tracker = Tracker::new(rig, tool, config.clone());
     let tip_true = world_from_tool * tool.tip_in_tool();
     let noise = Normal::new(0.0, noise_px).map_err(|_| MetrologyError::BadNoise(noise_px))?;
     const CHUNK: usize = 256;

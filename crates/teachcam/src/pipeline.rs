@@ -446,7 +446,7 @@ impl<'a> TrackStream<'a> {
             detect: DetectStream::new(source, cameras)?,
             rig,
             tool,
-            tracker: Tracker::new(rig, tool, config.track),
+            tracker: Tracker::new(rig, tool, config.track.clone()),
             ids,
             scale: NoiseScale::default(),
             pending: VecDeque::new(),

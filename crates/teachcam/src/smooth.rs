@@ -33,7 +33,7 @@ use rayon::prelude::*;
 
 use crate::geometry::{FrameIndex, Point3, pose_from_parts};
 use crate::trajectory::{
-    PoseSource, Sample, SampleRateError, ToolPose, Trajectory, check_sample_rate_hz,
+    PoseSource, Sample, SampleRateError, Status, ToolPose, Trajectory, check_sample_rate_hz,
 };
 use butterworth::{Butterworth, FilterError};
 use spline::{CubicSpline, SplineEnds};
@@ -609,9 +609,9 @@ fn smooth_run(
                 Vector3::new(smoothed[0][i], smoothed[1][i], smoothed[2][i]),
                 rotations[i],
             );
-            let (markers, rms_mm, source) = match &sample.pose {
-                Some(p) => (p.markers, p.rms_mm, sample.source),
-                None => (0, 0.0, PoseSource::Filled),
+            let (markers, rms_mm, source, status) = match &sample.pose {
+                Some(p) => (p.markers, p.rms_mm, sample.source, sample.status),
+                None => (0, 0.0, PoseSource::Filled, Status::Degraded),
             };
             Sample {
                 frame: sample.frame,
@@ -624,6 +624,7 @@ fn smooth_run(
                 }),
                 source,
                 tip_std_mm: sample.tip_std_mm,
+                status,
             }
         })
         .collect())

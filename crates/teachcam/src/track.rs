@@ -1,26 +1,43 @@
 //! Tracking: one frame's blobs to the tool's pose, and many frames to a trajectory.
 //!
 //! Per frame (paper §II): correspond the blobs of all cameras ([`crate::correspond`]),
-//! triangulate each correspondence ([`crate::triangulate`]), label the points with the tool's
-//! markers ([`crate::identify`]) and register the model onto them with the scale fixed to 1
-//! ([`crate::register`]). A frame needs three identified markers; otherwise it is an explicit
-//! gap with the reason. Frames are independent, so they run in parallel.
+//! triangulate each correspondence ([`crate::triangulate`], leaving out a view that disagrees
+//! with three or more), label the points with the tool's markers ([`crate::identify`]) and
+//! register the model onto them with the scale fixed to 1 ([`crate::register`]).
+//!
+//! Correspondence and identification help each other: where the epipolar geometry leaves
+//! several pairings of some blobs (two markers near one epipolar line of a two-camera rig),
+//! every combination of pairings is triangulated and identified, and the tool's distances
+//! choose. The choice needs a margin: when a second combination gives as many markers and a
+//! registration residual within `max(gate, 2 × the best's)`, the frame is a gap
+//! ([`Lost::Ambiguous`]); so is a frame whose identification has an equally good rival.
+//!
+//! Every frame gets a [`Status`] with its reasons ([`Flag`]): `ok`; `degraded` (a view
+//! dropped, fewer markers than the tool has); `outlier` (a pose whose registration residual
+//! is beyond the gate: written, flagged); `lost` ([`Lost`], no pose). The gates are data,
+//! measured from the recording ([`gates`]). Frames are independent, so they run in parallel.
+
+pub mod gates;
+pub mod uncertainty;
 
 use std::collections::BTreeMap;
 
 use rayon::prelude::*;
 
 use crate::camera::Rig;
-use crate::correspond::{CorrespondConfig, EpipolarGeometry, Views, correspond};
+use crate::correspond::{
+    CorrespondConfig, Correspondence, Correspondences, EpipolarGeometry, Views, correspond_all,
+};
 use crate::geometry::{CameraId, FrameIndex, MarkerId, Point3};
 use crate::identify::{IdentifyConfig, identify};
 use crate::register::{RegisterError, Scale, register};
 use crate::tool::Tool;
-use crate::trajectory::{Sample, ToolPose, Trajectory};
-use crate::triangulate::{TriangulateConfig, TriangulatedPoint, triangulate};
+use crate::trajectory::{Sample, Status, ToolPose, Trajectory};
+use crate::triangulate::{TriangulateConfig, TriangulatedPoint, triangulate_leaving_one_out};
 
-/// Options of every tracking stage.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Options of every tracking stage: the gates ([`gates::Gates::track_config`] sets them from a
+/// recording).
+#[derive(Debug, Clone, PartialEq)]
 pub struct TrackConfig {
     /// Correspondence.
     pub correspond: CorrespondConfig,
@@ -28,10 +45,19 @@ pub struct TrackConfig {
     pub triangulate: TriangulateConfig,
     /// Identification.
     pub identify: IdentifyConfig,
-    /// Largest registration RMS of an accepted pose, millimetres: a correct fit on the paper's
-    /// rig leaves ≈ 0.03 mm; a wrong label leaves millimetres.
+    /// Largest registration RMS of an `ok` pose, millimetres; beyond it the pose is an
+    /// `outlier`, beyond [`OUTLIER_LIMIT`] times it a gap. Default 0.5: a correct fit on the
+    /// paper's rig leaves ≈ 0.03 mm, a wrong label millimetres.
     pub max_registration_rms_mm: f64,
 }
+
+/// How many times the registration gate a pose may leave and still be written (as an
+/// outlier): beyond it the misfit is no longer noise but a wrong point or a broken tool.
+pub const OUTLIER_LIMIT: f64 = 3.0;
+
+/// Most combinations of ambiguous pairings tried in one frame; beyond it the ambiguous blobs
+/// are left out (and the frame says so).
+pub const MAX_COMBINATIONS: usize = 256;
 
 impl Default for TrackConfig {
     fn default() -> Self {
@@ -59,13 +85,73 @@ pub enum Lost {
     #[error("registration: {0}")]
     Register(#[from] RegisterError),
     /// The registered model does not fit the points.
-    #[error("registration residual {rms_mm:.3} mm exceeds {max_mm} mm")]
+    #[error("registration residual {rms_mm:.3} mm exceeds {max_mm:.3} mm")]
     Residual {
         /// RMS residual found.
         rms_mm: f64,
         /// The limit.
         max_mm: f64,
     },
+    /// Two labellings fit the tool equally well.
+    #[error(
+        "ambiguous: two labellings fit the tool with {markers} markers (registration residuals {best_mm:.3} and {rival_mm:.3} mm)"
+    )]
+    Ambiguous {
+        /// Markers in each labelling.
+        markers: usize,
+        /// The better one's residual.
+        best_mm: f64,
+        /// The rival's residual.
+        rival_mm: f64,
+    },
+}
+
+/// A reason why a frame with a pose is not simply `ok`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Flag {
+    /// A view disagreed with the others and was left out of a marker's point.
+    #[error("view of {camera} dropped from a point ({residual_px:.3} px with it)")]
+    ViewDropped {
+        /// The camera.
+        camera: CameraId,
+        /// The point's residual with the view, pixels.
+        residual_px: f64,
+    },
+    /// Fewer markers than the tool has.
+    #[error("{used} of {of} markers")]
+    FewerMarkers {
+        /// Markers used.
+        used: usize,
+        /// Markers of the tool.
+        of: usize,
+    },
+    /// Ambiguous pairings were too many to try.
+    #[error("{combinations} pairing combinations; ambiguous blobs left out")]
+    TooManyPairings {
+        /// Combinations the ambiguous groups had.
+        combinations: usize,
+    },
+    /// The registration residual is beyond the gate.
+    #[error("registration residual {rms_mm:.3} mm beyond the {gate_mm:.3} mm gate")]
+    RegistrationResidual {
+        /// RMS residual found.
+        rms_mm: f64,
+        /// The gate.
+        gate_mm: f64,
+    },
+}
+
+impl Flag {
+    /// The status this flag gives a frame with a pose.
+    #[must_use]
+    pub fn status(&self) -> Status {
+        match self {
+            Self::RegistrationResidual { .. } => Status::Outlier,
+            Self::ViewDropped { .. } | Self::FewerMarkers { .. } | Self::TooManyPairings { .. } => {
+                Status::Degraded
+            }
+        }
+    }
 }
 
 /// One frame's tracking result with its evidence.
@@ -73,13 +159,44 @@ pub enum Lost {
 pub struct FrameTrack {
     /// The pose, or why there is none.
     pub outcome: Result<ToolPose, Lost>,
-    /// Every triangulated point of the frame.
+    /// Every triangulated point of the frame (with the chosen pairing of ambiguous blobs).
     pub points: Vec<TriangulatedPoint>,
     /// For each identified marker, the index of its point in `points`.
     pub labels: BTreeMap<MarkerId, usize>,
+    /// Why a frame with a pose is degraded or an outlier.
+    pub flags: Vec<Flag>,
+    /// Combinations of ambiguous pairings tried (1 when correspondence was unique).
+    pub combinations: usize,
 }
 
 impl FrameTrack {
+    /// The frame's status: `lost` without a pose, else the worst of its flags' statuses.
+    #[must_use]
+    pub fn status(&self) -> Status {
+        if self.outcome.is_err() {
+            return Status::Lost;
+        }
+        self.flags
+            .iter()
+            .map(Flag::status)
+            .max()
+            .unwrap_or(Status::Ok)
+    }
+
+    /// The reasons for the status, `; `-separated (empty for `ok`).
+    #[must_use]
+    pub fn reason(&self) -> String {
+        match &self.outcome {
+            Err(lost) => lost.to_string(),
+            Ok(_) => self
+                .flags
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join("; "),
+        }
+    }
+
     /// Number of cameras that saw an identified marker, per marker.
     #[must_use]
     pub fn views_per_marker(&self) -> BTreeMap<MarkerId, usize> {
@@ -96,6 +213,30 @@ impl FrameTrack {
             .iter()
             .map(|(m, p)| (*m, self.points[*p].position))
             .collect()
+    }
+}
+
+/// A triangulated correspondence with the flags its triangulation raised.
+#[derive(Debug, Clone)]
+struct FramePoint {
+    point: TriangulatedPoint,
+    flag: Option<Flag>,
+}
+
+/// One combination's answer.
+struct Candidate {
+    points: Vec<FramePoint>,
+    labels: BTreeMap<MarkerId, usize>,
+    outcome: Result<ToolPose, Lost>,
+}
+
+impl Candidate {
+    /// Markers and residual, for ranking: more markers, then a smaller residual.
+    fn rank(&self) -> (usize, f64) {
+        match &self.outcome {
+            Ok(p) => (p.markers, p.rms_mm),
+            Err(_) => (0, f64::INFINITY),
+        }
     }
 }
 
@@ -120,11 +261,51 @@ impl<'a> Tracker<'a> {
         }
     }
 
+    /// The options in use.
+    #[must_use]
+    pub fn config(&self) -> &TrackConfig {
+        &self.config
+    }
+
     /// Tracks one frame from its blob centres (distorted pixels) per camera.
     #[must_use]
     pub fn track_frame(&self, views: &Views) -> FrameTrack {
-        let correspondences = correspond(self.rig, &self.geometry, views, &self.config.correspond);
-        let points: Vec<TriangulatedPoint> = correspondences
+        let Correspondences { unique, ambiguous } =
+            correspond_all(self.rig, &self.geometry, views, &self.config.correspond);
+        let unique_points = self.triangulate_all(views, &unique);
+        let combinations = ambiguous
+            .iter()
+            .try_fold(1_usize, |n, a| n.checked_mul(a.alternatives.len()))
+            .unwrap_or(usize::MAX);
+        let mut extra_flags = Vec::new();
+        let mut candidates = Vec::new();
+        if ambiguous.is_empty() || combinations > MAX_COMBINATIONS {
+            if !ambiguous.is_empty() {
+                extra_flags.push(Flag::TooManyPairings { combinations });
+            }
+            candidates.push(self.candidate(unique_points));
+        } else {
+            for k in 0..combinations {
+                // Mixed-radix digits of k pick one alternative per group.
+                let mut rest = k;
+                let mut points = unique_points.clone();
+                for group in &ambiguous {
+                    let n = group.alternatives.len();
+                    points.extend(self.triangulate_all(views, &group.alternatives[rest % n]));
+                    rest /= n;
+                }
+                candidates.push(self.candidate(points));
+            }
+        }
+        self.choose(candidates, extra_flags, combinations.min(MAX_COMBINATIONS))
+    }
+
+    fn triangulate_all(
+        &self,
+        views: &Views,
+        correspondences: &[Correspondence],
+    ) -> Vec<FramePoint> {
+        correspondences
             .iter()
             .filter_map(|c| {
                 let pixels: BTreeMap<CameraId, _> = c
@@ -132,21 +313,131 @@ impl<'a> Tracker<'a> {
                     .iter()
                     .filter_map(|(cam, i)| Some((*cam, *views.get(cam)?.get(*i)?)))
                     .collect();
-                triangulate(self.rig, &pixels, &self.config.triangulate).ok()
+                let robust =
+                    triangulate_leaving_one_out(self.rig, &pixels, &self.config.triangulate)
+                        .ok()?;
+                let flag =
+                    robust
+                        .dropped
+                        .zip(robust.residual_with_all_px)
+                        .map(|(camera, residual_px)| Flag::ViewDropped {
+                            camera,
+                            residual_px,
+                        });
+                Some(FramePoint {
+                    point: robust.point,
+                    flag,
+                })
             })
-            .collect();
-        let positions: Vec<Point3> = points.iter().map(|p| p.position).collect();
+            .collect()
+    }
+
+    fn candidate(&self, points: Vec<FramePoint>) -> Candidate {
+        let positions: Vec<Point3> = points.iter().map(|p| p.point.position).collect();
         let identification = identify(
             &self.tool.markers_in_tool,
             &positions,
             &self.config.identify,
         );
-        let labels = identification.labels;
-        let outcome = self.pose(&labels, &positions);
+        let mut outcome = self.pose(&identification.labels, &positions);
+        if let (Ok(pose), Some(rival)) = (&outcome, &identification.rival) {
+            let rival_outcome = self.pose(rival, &positions);
+            let rival_mm = rival_outcome.as_ref().map_or(f64::INFINITY, |p| p.rms_mm);
+            if self.too_close(pose.rms_mm, rival_mm) {
+                outcome = Err(Lost::Ambiguous {
+                    markers: pose.markers,
+                    best_mm: pose.rms_mm,
+                    rival_mm,
+                });
+            }
+        }
+        Candidate {
+            points,
+            labels: identification.labels,
+            outcome,
+        }
+    }
+
+    /// Whether a rival's residual is within the margin of the best's: no worse than
+    /// `max(gate, 2 × best)`.
+    fn too_close(&self, best_mm: f64, rival_mm: f64) -> bool {
+        rival_mm <= self.config.max_registration_rms_mm.max(2.0 * best_mm)
+    }
+
+    /// The best candidate, or a gap when a rival with other markers' positions is as good.
+    fn choose(
+        &self,
+        mut candidates: Vec<Candidate>,
+        mut flags: Vec<Flag>,
+        combinations: usize,
+    ) -> FrameTrack {
+        candidates.sort_by(|a, b| {
+            let (ma, ra) = a.rank();
+            let (mb, rb) = b.rank();
+            mb.cmp(&ma).then(ra.total_cmp(&rb))
+        });
+        let mut candidates = candidates.into_iter();
+        let Some(best) = candidates.next() else {
+            return FrameTrack {
+                outcome: Err(Lost::TooFewMarkers {
+                    identified: 0,
+                    points: 0,
+                }),
+                points: Vec::new(),
+                labels: BTreeMap::new(),
+                flags,
+                combinations,
+            };
+        };
+        let mut outcome = best.outcome.clone();
+        if let Ok(pose) = &best.outcome {
+            let same_markers = |c: &Candidate| -> bool {
+                best.labels.iter().all(|(m, p)| {
+                    c.labels.get(m).is_some_and(|q| {
+                        c.points[*q].point.position == best.points[*p].point.position
+                    })
+                })
+            };
+            let rival = candidates.find(|c| {
+                let (markers, _) = c.rank();
+                markers == pose.markers && !same_markers(c)
+            });
+            if let Some(rival) = rival {
+                let rival_mm = rival.rank().1;
+                if self.too_close(pose.rms_mm, rival_mm) {
+                    outcome = Err(Lost::Ambiguous {
+                        markers: pose.markers,
+                        best_mm: pose.rms_mm,
+                        rival_mm,
+                    });
+                }
+            }
+        }
+        if let Ok(pose) = &outcome {
+            flags.extend(
+                best.labels
+                    .values()
+                    .filter_map(|p| best.points[*p].flag.clone()),
+            );
+            if pose.markers < self.tool.markers_in_tool.len() {
+                flags.push(Flag::FewerMarkers {
+                    used: pose.markers,
+                    of: self.tool.markers_in_tool.len(),
+                });
+            }
+            if pose.rms_mm > self.config.max_registration_rms_mm {
+                flags.push(Flag::RegistrationResidual {
+                    rms_mm: pose.rms_mm,
+                    gate_mm: self.config.max_registration_rms_mm,
+                });
+            }
+        }
         FrameTrack {
             outcome,
-            points,
-            labels,
+            points: best.points.into_iter().map(|p| p.point).collect(),
+            labels: best.labels,
+            flags,
+            combinations,
         }
     }
 
@@ -165,28 +456,38 @@ impl<'a> Tracker<'a> {
         pose_from_markers(
             self.tool,
             &markers_in_world,
-            self.config.max_registration_rms_mm,
+            OUTLIER_LIMIT * self.config.max_registration_rms_mm,
         )
     }
 
     /// Tracks every frame (in parallel) and assembles the trajectory; frame `i` is at time
-    /// `i / fps`.
+    /// `i / fps`. Each sample carries its frame's status.
     #[must_use]
     pub fn track_all(&self, frames: &[Views], fps: f64) -> (Trajectory, Vec<FrameTrack>) {
         let tracks: Vec<FrameTrack> = frames.par_iter().map(|v| self.track_frame(v)).collect();
-        let samples = tracks
-            .iter()
-            .enumerate()
-            .map(|(i, t)| {
-                let time_s = i as f64 / fps;
-                match &t.outcome {
-                    Ok(pose) => Sample::measured(FrameIndex(i), time_s, *pose),
-                    Err(_) => Sample::gap(FrameIndex(i), time_s),
-                }
-            })
-            .collect();
-        (Trajectory { samples }, tracks)
+        (trajectory_from_tracks(&tracks, fps), tracks)
     }
+}
+
+/// The trajectory of tracked frames, frame `i` at time `i / fps`, each sample with its
+/// frame's status.
+#[must_use]
+pub fn trajectory_from_tracks(tracks: &[FrameTrack], fps: f64) -> Trajectory {
+    let samples = tracks
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let time_s = i as f64 / fps;
+            match &t.outcome {
+                Ok(pose) => Sample {
+                    status: t.status(),
+                    ..Sample::measured(FrameIndex(i), time_s, *pose)
+                },
+                Err(_) => Sample::gap(FrameIndex(i), time_s),
+            }
+        })
+        .collect();
+    Trajectory { samples }
 }
 
 /// The tool's pose from its identified markers' world positions: SVD registration with the

@@ -32,6 +32,53 @@ pub enum PoseSource {
     Filled,
 }
 
+/// How far a frame's pose can be trusted (DESIGN.md, "Status is data"; CONTRACT.md's
+/// `status` column). Downstream stages decide what to do with each; the reason is in
+/// `track`'s diagnostics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    /// Every gate passed with every view and marker the frame offered.
+    #[default]
+    Ok,
+    /// A pose within the gates, made with less than the frame offered: a view dropped, a
+    /// merged blob used, fewer markers than the tool has, or a gap filled by smoothing.
+    Degraded,
+    /// A pose is written, but its residuals are beyond the gate: treat it as a gap unless
+    /// told otherwise.
+    Outlier,
+    /// No pose.
+    Lost,
+}
+
+impl Status {
+    /// Every status, in order of increasing doubt.
+    pub const ALL: [Status; 4] = [Status::Ok, Status::Degraded, Status::Outlier, Status::Lost];
+
+    /// The word written in the trajectory CSV.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Ok => "ok",
+            Self::Degraded => "degraded",
+            Self::Outlier => "outlier",
+            Self::Lost => "lost",
+        }
+    }
+
+    /// The status a CSV word names.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
+impl std::fmt::Display for Status {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// One frame of a trajectory.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
@@ -46,6 +93,8 @@ pub struct Sample {
     /// Standard uncertainty of the tip position (RMS over the three axes), millimetres, when
     /// an uncertainty estimate was made.
     pub tip_std_mm: Option<f64>,
+    /// How far the pose can be trusted; [`Status::Lost`] exactly when `pose` is `None`.
+    pub status: Status,
 }
 
 impl Sample {
@@ -58,6 +107,7 @@ impl Sample {
             pose: None,
             source: PoseSource::Measured,
             tip_std_mm: None,
+            status: Status::Lost,
         }
     }
 
@@ -70,6 +120,7 @@ impl Sample {
             pose: Some(pose),
             source: PoseSource::Measured,
             tip_std_mm: None,
+            status: Status::Ok,
         }
     }
 }
@@ -92,6 +143,22 @@ impl Trajectory {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.samples.is_empty()
+    }
+
+    /// Turns every [`Status::Outlier`] sample into a gap ([`Status::Lost`]): what `smooth`,
+    /// `check` and `export` do with outliers unless told to keep them. Returns how many.
+    pub fn drop_outliers(&mut self) -> usize {
+        let mut dropped = 0;
+        for s in &mut self.samples {
+            if s.status == Status::Outlier {
+                *s = Sample {
+                    tip_std_mm: None,
+                    ..Sample::gap(s.frame, s.time_s)
+                };
+                dropped += 1;
+            }
+        }
+        dropped
     }
 
     /// The runs of consecutive samples that have a pose, as index ranges into `samples`.

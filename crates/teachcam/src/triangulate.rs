@@ -6,6 +6,11 @@
 //! the full lens model, which is the maximum-likelihood estimate under isotropic pixel noise
 //! (Hartley & Zisserman, *Multiple View Geometry*, §12.3). The per-point RMS reprojection
 //! residual is kept: it is the stage's evidence that the views belong together.
+//!
+//! Outlier views ([`triangulate_leaving_one_out`]): a point seen by three or more cameras whose
+//! residual is beyond the gate is triangulated again without each view in turn; when leaving
+//! one out brings the residual within the gate, that view is the one that disagrees (a merged
+//! or reflected blob, a camera off its calibration) and is dropped.
 
 use std::collections::BTreeMap;
 
@@ -166,4 +171,62 @@ pub fn triangulate(
         views: views.clone(),
         residual_px,
     })
+}
+
+/// A point from [`triangulate_leaving_one_out`], and the view it dropped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobustPoint {
+    /// The point from the views kept.
+    pub point: TriangulatedPoint,
+    /// The camera whose view was left out, if one was.
+    pub dropped: Option<CameraId>,
+    /// The residual with every view, pixels, when a view was dropped.
+    pub residual_with_all_px: Option<f64>,
+}
+
+/// [`triangulate`]; when the residual is beyond the gate and three or more views remain, the
+/// view whose removal leaves the smallest residual is dropped if that brings the residual
+/// within the gate (see the module docs).
+///
+/// # Errors
+/// As [`triangulate`] with every view, when no single view explains the misfit.
+pub fn triangulate_leaving_one_out(
+    rig: &Rig,
+    views: &BTreeMap<CameraId, Pixel>,
+    config: &TriangulateConfig,
+) -> Result<RobustPoint, TriangulateError> {
+    let all = match triangulate(rig, views, config) {
+        Ok(point) => {
+            return Ok(RobustPoint {
+                point,
+                dropped: None,
+                residual_with_all_px: None,
+            });
+        }
+        Err(e) => e,
+    };
+    let TriangulateError::Residual { residual_px, .. } = all else {
+        return Err(all);
+    };
+    if views.len() < 3 {
+        return Err(all);
+    }
+    let best = views
+        .keys()
+        .filter_map(|left_out| {
+            let mut kept = views.clone();
+            kept.remove(left_out);
+            triangulate(rig, &kept, config)
+                .ok()
+                .map(|point| (*left_out, point))
+        })
+        .min_by(|a, b| a.1.residual_px.total_cmp(&b.1.residual_px));
+    match best {
+        Some((camera, point)) => Ok(RobustPoint {
+            point,
+            dropped: Some(camera),
+            residual_with_all_px: Some(residual_px),
+        }),
+        None => Err(all),
+    }
 }

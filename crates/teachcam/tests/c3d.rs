@@ -719,8 +719,9 @@ fn dec_and_mips_files_read_as_their_intel_originals() {
 }
 
 /// Vicon's 8-marker box (`boite:*`): a tool built from the trial, then tracked by label and by
-/// distance-matrix identification among all 51 markers. Both pose every frame; where they use
-/// the same markers they are the same fit; the typical residual is at the box's rigidity
+/// distance-matrix identification among all 51 markers. Labels pose every frame, identification
+/// all but the frames where a rival labelling fits as well; where they use the same markers they
+/// are the same fit; the typical residual is at the box's rigidity
 /// (inter-marker distance std 0.06–0.41 mm, SOURCE.md).
 #[test]
 fn vicon_box_by_labels_and_by_identification() {
@@ -765,24 +766,41 @@ fn vicon_box_by_labels_and_by_identification() {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let mut rms: Vec<f64> = Vec::new();
-    let mut same = 0;
+    let (mut same, mut refused, mut farthest_mm) = (0, 0, 0.0_f64);
     for (a, b) in by_label.samples.iter().zip(&by_identity.samples) {
-        let (Some(a), Some(b)) = (&a.pose, &b.pose) else {
-            panic!("frame {}: no pose by label or by identification", a.frame);
+        let Some(a) = &a.pose else {
+            panic!("frame {}: no pose by label", a.frame);
         };
         rms.push(a.rms_mm);
+        let Some(b) = &b.pose else {
+            // Identification refuses a frame where a rival labelling fits as well.
+            refused += 1;
+            continue;
+        };
+        let d =
+            (a.world_from_tool.translation.vector - b.world_from_tool.translation.vector).norm();
+        farthest_mm = farthest_mm.max(d);
         if a.markers == b.markers {
             same += 1;
-            let d = (a.world_from_tool.translation.vector - b.world_from_tool.translation.vector)
-                .norm();
             assert!(d < 1e-9, "same markers, different fit: {d} mm");
         }
     }
     rms.sort_by(f64::total_cmp);
     let median = rms[rms.len() / 2];
+    println!(
+        "vicon box: {same} of {} frames identify the label's markers, {refused} refused as ambiguous, \
+         poses by identification within {farthest_mm:.2} mm of the labels'",
+        rms.len()
+    );
     assert!(median < 0.5, "median registration RMS {median} mm");
-    // Measured: 552 of 580 frames identify the same markers as the labels.
+    // Measured: 552 of 580 frames identify the same markers as the labels; in the frames where
+    // the box moves fast (from 205 on) a 5–6 marker labelling has an equally good rival.
     assert!(same * 10 >= rms.len() * 9, "{same} of {}", rms.len());
+    assert!(refused * 10 <= rms.len(), "{refused} refused");
+    assert!(
+        farthest_mm < 2.0,
+        "a pose by identification {farthest_mm} mm off"
+    );
 }
 
 /// More frames than a 16-bit header word holds: the writer stores the count in
@@ -991,4 +1009,31 @@ fn trajectory_with_measured_markers_equals_the_tracks() {
             }
         }
     }
+}
+
+/// Issue 15, item 8: a Vicon trial of a person, searched for a brush it does not hold, used to
+/// "find" it in 28 of 580 frames at 0.2–0.6 mm RMS (chance triangles of body markers). No frame
+/// holds the whole brush, so none may pose.
+#[test]
+fn a_tool_that_is_not_in_the_trial_is_never_found() {
+    let Some(file) = read_shared("ezc3d_Vicon.c3d") else {
+        return;
+    };
+    let brush = teachcam::sim::scenario::paper_brush();
+    let identify = teachcam::identify::IdentifyConfig {
+        distance_tolerance_mm: 1.0,
+    };
+    let trajectory = c3d::track_markers(
+        &file.points,
+        &brush,
+        &c3d::MarkerSelection::Identify(identify),
+        &c3d::TrackMarkersConfig::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let found = trajectory
+        .samples
+        .iter()
+        .filter(|s| s.pose.is_some())
+        .count();
+    assert_eq!(found, 0, "the brush 'found' in {found} frames");
 }

@@ -61,6 +61,9 @@ pub struct CellArgs {
     /// this flag accelerations are reported, not judged).
     #[arg(long)]
     pub max_acceleration_deg_s2: Option<f64>,
+    /// Use the poses `track` flagged `outlier` (default: treat them as gaps).
+    #[arg(long)]
+    pub keep_outliers: bool,
 }
 
 /// Everything `check` and `export` need, resolved from the arguments and files.
@@ -105,7 +108,10 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         }
         None => UnitQuaternion::identity(),
     };
-    let trajectory = read_trajectory(trajectory).rejected()?;
+    let mut trajectory = read_trajectory(trajectory).rejected()?;
+    if !args.keep_outliers {
+        trajectory.drop_outliers();
+    }
     let targets = tcp_targets(&trajectory, &tip_rotation);
     if targets.is_empty() {
         return Err(anyhow::anyhow!(

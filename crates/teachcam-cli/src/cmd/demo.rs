@@ -118,8 +118,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         threshold: None,
         near: 300.0,
         far: 3000.0,
-        epipolar_tolerance: TrackConfig::default().correspond.epipolar_tolerance_px,
-        distance_tolerance: TrackConfig::default().identify.distance_tolerance_mm,
+        gates: super::track::GateFlags::default(),
+        time_offsets: None,
+        time_offsets_out: None,
     })?;
     timed("detect + track", start);
     let raw = read_trajectory(&raw_path)?;
@@ -162,6 +163,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         tool: None,
         speed_fraction: 1.0,
         max_acceleration_deg_s2: None,
+        keep_outliers: false,
     };
     let rapid_path = out.join("stroke.mod");
     let written = super::export::write_program(&super::export::Args {

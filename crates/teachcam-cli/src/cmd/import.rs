@@ -7,7 +7,7 @@ use anyhow::bail;
 use teachcam::c3d::{self, MarkerSelection, PointData, ToolFromDataConfig, TrackMarkersConfig};
 use teachcam::identify::IdentifyConfig;
 use teachcam::io::tool::{read_tool, tool_json};
-use teachcam::io::trajectory::trajectory_csv;
+use teachcam::io::trajectory::trajectory_text;
 use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::vendor;
 
@@ -28,6 +28,9 @@ use crate::{DataRejected, Rejected as _};
 ///   `teachcam import c3d trial.c3d --markers Probe1,Probe2,Probe3 --tool-out probe.json -o traj.csv`
 ///   `teachcam import motive take.csv --tool brush.json -o traj.csv`
 ///   `teachcam import markers markers.csv --fps 30 --markers M0,M1,M2,M3 --tool-out brush.json -o traj.csv`
+///
+/// Found by identification, the tool needs at least one frame with all its markers and no rival
+/// labelling; without one it is not in the data: nothing is written and the exit status is 3.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// File format: c3d, motive (OptiTrack Motive CSV) or qualisys (QTM TSV).
@@ -65,6 +68,9 @@ pub struct Args {
     #[arg(short, long)]
     pub output: PathBuf,
 }
+
+/// Below this fraction of frames with a pose, `import` warns that the tool is rarely found.
+const RARELY_FOUND: f64 = 0.1;
 
 /// Marker file formats `import` reads.
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -177,7 +183,29 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         max_registration_rms_mm: args.max_rms_mm,
     };
     let trajectory = c3d::track_markers(&points, &tool, &selection, &config).map_err(in_file)?;
-    outputs.add(&args.output, trajectory_csv(&trajectory).as_bytes())?;
+    let found = trajectory
+        .samples
+        .iter()
+        .filter(|s| s.pose.is_some())
+        .count();
+    if found == 0 {
+        return Err(anyhow::Error::new(super::track::ToolNotFound(format!(
+            "{}: tool '{}' not found in any of {} frames (no frame holds all its {} markers at its distances); nothing written",
+            args.file.display(),
+            tool.name,
+            trajectory.len(),
+            tool.markers_in_tool.len()
+        ))));
+    }
+    if (found as f64) < RARELY_FOUND * trajectory.len() as f64 {
+        eprintln!(
+            "warning: tool '{}' found in only {found} of {} frames",
+            tool.name,
+            trajectory.len()
+        );
+    }
+    let text = trajectory_text(&args.output, &trajectory).rejected()?;
+    outputs.add(&args.output, text.as_bytes())?;
     let written = outputs.commit()?;
     let posed: Vec<f64> = trajectory
         .samples

@@ -66,6 +66,10 @@ pub struct Args {
     /// Tool file giving the tip; without it the tip is recovered from the trajectory.
     #[arg(long)]
     pub tool: Option<PathBuf>,
+    /// Smooth through the poses `track` flagged `outlier` (default: they are gaps, filled like
+    /// any other when short).
+    #[arg(long)]
+    pub keep_outliers: bool,
     /// Output trajectory CSV (written whole or not at all).
     #[arg(short = 'o', long)]
     pub output: PathBuf,
@@ -116,7 +120,10 @@ pub fn run(args: &Args) -> Result<()> {
     let mut inputs = vec![args.input.as_path()];
     inputs.extend(args.tool.as_deref());
     check_outputs(&[Output::csv(&args.output)], &inputs)?;
-    let trajectory = read_trajectory(&args.input).rejected()?;
+    let mut trajectory = read_trajectory(&args.input).rejected()?;
+    if !args.keep_outliers {
+        trajectory.drop_outliers();
+    }
     let mut config = SmoothConfig {
         max_gap_frames: args.max_gap,
         short_runs: match args.short_runs {

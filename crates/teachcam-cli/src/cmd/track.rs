@@ -1,31 +1,64 @@
 //! `teachcam track`: the tool's trajectory from a recording (paper §II).
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use teachcam::correspond::Views;
 use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
-use teachcam::identify::check_identifiable;
-use teachcam::io::recording::{check_recording_against_rig, open_recording, read_frame};
-use teachcam::io::trajectory::trajectory_csv;
+use teachcam::identify::{IdentifyConfig, check_identifiable};
+use teachcam::io::recording::{
+    CameraFrames, Recording, check_recording_against_rig, open_recording, read_frame,
+};
+use teachcam::io::trajectory::trajectory_text;
 use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
-use teachcam::metrology::{first_order, residual_noise_px};
-use teachcam::track::{FrameTrack, TrackConfig, Tracker};
-use teachcam::trajectory::Trajectory;
+use teachcam::sync::ResampleIssue;
+use teachcam::track::gates::{
+    GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
+};
+use teachcam::track::uncertainty::tip_std_mm;
+use teachcam::track::{FrameTrack, Tracker, trajectory_from_tracks};
+use teachcam::trajectory::{Status, Trajectory};
 
 use crate::Rejected;
-use crate::cmd::detect::detect_recording;
+use crate::cmd::detect::{FrameBlobs, detect_recording};
+
+pub use teachcam::track::uncertainty::rms;
+
+/// Frames whose images are detected twice to measure the roundness gate.
+const ROUNDNESS_SAMPLE_FRAMES: usize = 60;
+
+/// Frames tracked in the first pass that measures the other gates.
+const GATE_SAMPLE_FRAMES: usize = 300;
+
+/// Below this fraction of frames posed, `track` points to `teachcam doctor`.
+const DOCTOR_BELOW: f64 = 0.9;
+
+mod time_offsets;
 
 /// Track the tool through a recording: its pose in every frame.
 ///
-/// Detects the marker blobs in every camera, match them
-/// across cameras (the paper's trinocular loop), triangulate, identify the tool's markers by
-/// their distances, and register the tool (SVD, scale 1). Writes the contract's trajectory CSV:
-/// one row per frame, pose fields empty where the frame has no pose, plus `tip_std_mm`, the
-/// first-order tip uncertainty of the frame: its blobs' predicted centre noise, scaled to the
-/// pixel error the recording's triangulation residuals show (which also holds detector bias and
-/// calibration error).
+/// Detects the marker blobs in every camera, matches them across cameras (the paper's
+/// trinocular loop; with two cameras, blobs near one epipolar line are paired every possible
+/// way and the tool's distances choose), triangulates (leaving out a view that disagrees with
+/// three or more), identifies the tool's markers by their distances, and registers the tool
+/// (SVD, scale 1).
+///
+/// Gates: a first pass over a sample of frames measures what this rig and these images give
+/// (blob roundness, epipolar residuals per camera pair, triangulation and registration
+/// residuals, marker distance errors) and sets every limit from it (median ± k·MAD, with floors
+/// and ceilings). They are printed on stderr, written to `<diagnostics stem>.gates.json`
+/// beside `--diagnostics`, and each can be fixed by its flag.
+///
+/// Writes the contract's trajectory CSV: one row per frame, pose fields empty where the frame
+/// has no pose, `tip_std_mm` (the frame's first-order tip uncertainty, scaled to the pixel
+/// error the recording's residuals show and grown with the frame's own residuals beyond the
+/// typical ones) and `status`: ok, degraded (a view dropped, fewer markers than the tool has),
+/// outlier (pose written, registration residual beyond the gate) or lost (no pose); the reason
+/// is in `--diagnostics`.
+///
+/// Exit status: 0 when the tool was tracked, 1 for rejected data, 2 for usage, 3 when the tool
+/// was not found in any frame (nothing is written then).
 ///
 /// Example: `teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --diagnostics diag.csv`
 #[derive(Debug, clap::Args)]
@@ -45,7 +78,9 @@ pub struct Args {
     /// `frame,marker,x_mm,y_mm,z_mm,views,residual_px`.
     #[arg(long)]
     pub markers_out: Option<PathBuf>,
-    /// Also write per-frame diagnostics: `frame,status,reason,points,markers,views_per_marker,max_residual_px`.
+    /// Also write per-frame diagnostics
+    /// (`frame,status,reason,points,markers,views_per_marker,max_residual_px,combinations`) and
+    /// the gates beside it (`<stem>.gates.json`).
     #[arg(long)]
     pub diagnostics: Option<PathBuf>,
     /// Frames per second (overrides recording.json; default 30).
@@ -63,44 +98,193 @@ pub struct Args {
     /// Farthest distance from a camera to a marker, millimetres.
     #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
     pub far: f64,
-    /// Largest distance of a blob from an epipolar line, pixels.
-    #[arg(long, default_value_t = TrackConfig::default().correspond.epipolar_tolerance_px, value_parser = crate::flags::positive)]
-    pub epipolar_tolerance: f64,
-    /// Tolerance on marker distances for identification, millimetres.
-    #[arg(long, default_value_t = TrackConfig::default().identify.distance_tolerance_mm, value_parser = crate::flags::positive)]
-    pub distance_tolerance: f64,
+    /// Gates fixed by hand (default: measured from the recording).
+    #[command(flatten)]
+    pub gates: GateFlags,
+    /// Unsynchronised cameras: `auto` estimates each camera's time offset from the blobs (on
+    /// the first camera's clock; refused with a message when the tool barely moves), or give
+    /// them, seconds, `cam1=0.0093,cam2=-0.0131` (frame k of a camera exposed at k/fps +
+    /// offset) or as a JSON file written by `--time-offsets-out`. Blobs are moved to common
+    /// frame times before correspondence; frames where some could not be are listed in the
+    /// diagnostics' `resampling` column.
+    #[arg(long)]
+    pub time_offsets: Option<time_offsets::TimeOffsetsArg>,
+    /// Also write the offsets applied: `{"cam0": 0.0, "cam1": 0.0093, ...}`, seconds.
+    #[arg(long, requires = "time_offsets")]
+    pub time_offsets_out: Option<PathBuf>,
 }
+
+/// The gates a user can fix; each one left out is measured from the recording.
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct GateFlags {
+    /// Smallest blob roundness kept, 0..1 (1 = disc; two touching equal discs score 0.5).
+    #[arg(long, value_parser = crate::flags::unit_interval)]
+    pub min_roundness: Option<f64>,
+    /// Largest distance of a blob from an epipolar line, pixels (every camera pair).
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub epipolar_tolerance: Option<f64>,
+    /// Largest RMS triangulation residual of a marker, pixels.
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub max_residual_px: Option<f64>,
+    /// Tolerance on marker distances for identification, millimetres.
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub distance_tolerance: Option<f64>,
+    /// Largest registration RMS of an `ok` pose, millimetres (up to 3 times it: `outlier`).
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub max_registration_rms: Option<f64>,
+}
+
+impl GateFlags {
+    /// The gates these flags fix (clap has checked their values).
+    #[must_use]
+    pub fn overrides(&self) -> GateOverrides {
+        GateOverrides {
+            min_roundness: self.min_roundness,
+            epipolar_tolerance_px: self.epipolar_tolerance,
+            max_residual_px: self.max_residual_px,
+            distance_tolerance_mm: self.distance_tolerance,
+            max_registration_rms_mm: self.max_registration_rms,
+        }
+    }
+}
+
+/// The tool was not found in any frame (exit status 3).
+#[derive(Debug)]
+pub struct ToolNotFound(pub String);
+
+impl std::fmt::Display for ToolNotFound {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ToolNotFound {}
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let (trajectory, written) = track_to_files(args)?;
-    let tracked = trajectory
+    let trajectory = &trajectory;
+    let count = |status: Status| {
+        trajectory
+            .samples
+            .iter()
+            .filter(|s| s.status == status)
+            .count()
+    };
+    let posed = trajectory
         .samples
         .iter()
         .filter(|s| s.pose.is_some())
         .count();
     crate::announce::wrote(
         &written,
-        &format!("{tracked} of {} frames tracked", trajectory.len()),
+        &format!(
+            "{posed} of {} frames tracked ({} ok, {} degraded, {} outlier, {} lost)",
+            trajectory.len(),
+            count(Status::Ok),
+            count(Status::Degraded),
+            count(Status::Outlier),
+            count(Status::Lost),
+        ),
     );
+    if (posed as f64) < DOCTOR_BELOW * trajectory.len() as f64 {
+        eprintln!(
+            "fewer than {:.0} % of the frames posed: see `teachcam doctor {} --rig {} --tool {}`{}",
+            100.0 * DOCTOR_BELOW,
+            args.recording.display(),
+            args.rig.display(),
+            args.tool.display(),
+            if args.diagnostics.is_none() {
+                " or --diagnostics"
+            } else {
+                ""
+            }
+        );
+    }
     Ok(())
 }
 
-/// Detects, tracks and writes the trajectory and the optional files, all or none; returns the
-/// trajectory and the files written. Prints nothing but a progress bar on a terminal.
+/// The recording with only some frames of each camera.
+fn frames_subset(recording: &Recording, frames: &[usize]) -> Recording {
+    Recording {
+        cameras: recording
+            .cameras
+            .iter()
+            .map(|c| CameraFrames {
+                name: c.name.clone(),
+                frames: frames
+                    .iter()
+                    .filter_map(|&f| c.frames.get(f).cloned())
+                    .collect(),
+            })
+            .collect(),
+        ..recording.clone()
+    }
+}
+
+/// Blob centres of each frame (rig camera ids) and each frame's blobs' predicted noise.
+fn views_of(
+    rig: &teachcam::camera::Rig,
+    detections: &[FrameBlobs],
+    frame_count: usize,
+) -> (Vec<Views>, Vec<Vec<f64>>) {
+    let mut views: Vec<Views> = vec![Views::new(); frame_count];
+    let mut noise: Vec<Vec<f64>> = vec![Vec::new(); frame_count];
+    for d in detections {
+        let Some(id) = rig.id_of(&d.camera) else {
+            continue;
+        };
+        if d.frame >= frame_count {
+            continue;
+        }
+        views[d.frame].insert(id, d.blobs.iter().map(|b| b.center).collect());
+        noise[d.frame].extend(d.blobs.iter().map(|b| b.center_std_px));
+    }
+    (views, noise)
+}
+
+/// Where the gates are written beside the diagnostics: `<stem>.gates.json`.
+#[must_use]
+pub fn gates_path(diagnostics: &Path) -> PathBuf {
+    let stem = diagnostics.file_stem().map_or_else(
+        || "diagnostics".into(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    diagnostics.with_file_name(format!("{stem}.gates.json"))
+}
+
+/// Detects, measures the gates, tracks and writes the trajectory and the optional files, all
+/// or none; returns the trajectory and the files written. Prints the gates on stderr and
+/// nothing else but a progress bar on a terminal.
 pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)> {
+    let gates_json = args.diagnostics.as_deref().map(gates_path);
     let mut outputs = vec![Output::csv(&args.output)];
     outputs.extend(args.markers_out.as_deref().map(Output::csv));
     outputs.extend(args.diagnostics.as_deref().map(Output::csv));
+    outputs.extend(gates_json.as_deref().map(|path| Output {
+        path,
+        format: "JSON",
+        extensions: &["json"],
+    }));
+    outputs.extend(args.time_offsets_out.as_deref().map(|path| Output {
+        path,
+        format: "time offsets JSON",
+        extensions: &["json"],
+    }));
     check_outputs(&outputs, &[&args.rig, &args.tool])?;
+    let overrides = args.gates.overrides();
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
-    let mut config = TrackConfig::default();
-    config.correspond.epipolar_tolerance_px = args.epipolar_tolerance;
-    config.identify.distance_tolerance_mm = args.distance_tolerance;
-    check_identifiable(&tool, &config.identify)
+    if let Some(tolerance) = overrides.distance_tolerance_mm {
+        check_identifiable(
+            &tool,
+            &IdentifyConfig {
+                distance_tolerance_mm: tolerance,
+            },
+        )
         .with_context(|| format!("{}", args.tool.display()))
         .rejected()?;
+    }
     if args.near >= args.far {
         anyhow::bail!(
             "--near {} and --far {}: near must be less than far",
@@ -124,70 +308,131 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
                 .rejected()?;
         }
     }
-    let configs: Vec<DetectConfig> = rig
-        .cameras
-        .iter()
-        .map(|camera| {
-            let mut cfg =
-                DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far);
-            cfg.method = args.method;
-            if let Some(t) = args.threshold {
-                cfg.threshold = Threshold::Fixed(t);
-            }
-            cfg
-        })
-        .collect();
-    let detections = detect_recording(&recording, &configs)?;
-
-    let frame_count = recording.frame_count();
-    let mut views: Vec<Views> = vec![Views::new(); frame_count];
-    let mut noise: Vec<Vec<f64>> = vec![Vec::new(); frame_count];
-    for d in &detections {
-        let Some(id) = rig.id_of(&d.camera) else {
-            continue;
-        };
-        views[d.frame].insert(id, d.blobs.iter().map(|b| b.center).collect());
-        noise[d.frame].extend(d.blobs.iter().map(|b| b.center_std_px));
-    }
-    let tracker = Tracker::new(&rig, &tool, config);
-    let (mut trajectory, tracks) = tracker.track_all(&views, recording.fps);
-    // The blobs' own σ hold image noise only; the markers' triangulation residuals show the
-    // whole pixel error (on the paper scene 0.0085 px against a predicted 0.0030 px), so the
-    // per-frame σ keep their relative sizes and take the residuals' scale.
-    let predicted_px = rms(&noise.concat());
-    let shown_px = residual_noise_px(
-        tracks
+    let configs = |min_roundness: f64| -> Vec<DetectConfig> {
+        rig.cameras
             .iter()
-            .flat_map(|t| t.labels.values().map(|&p| &t.points[p])),
-    );
-    let scale = match shown_px {
-        Some(shown) if predicted_px > 0.0 => shown / predicted_px,
-        _ => 1.0,
+            .map(|camera| {
+                let mut cfg =
+                    DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far);
+                cfg.method = args.method;
+                cfg.min_roundness = min_roundness;
+                if let Some(t) = args.threshold {
+                    cfg.threshold = Threshold::Fixed(t);
+                }
+                cfg
+            })
+            .collect()
     };
-    for (sample, frame_noise) in trajectory.samples.iter_mut().zip(&noise) {
-        let Some(pose) = sample.pose else { continue };
-        let frame_px = scale * rms(frame_noise);
-        if frame_px > 0.0 {
-            sample.tip_std_mm = first_order(&rig, &tool, &pose.world_from_tool, frame_px)
-                .ok()
-                .map(|u| u.tip_rms_mm);
+    let frame_count = recording.frame_count();
+
+    // First pass: the roundness gate from a sample detected with the lowest floor.
+    let min_roundness = match overrides.min_roundness {
+        Some(_) => roundness_gate(&[], overrides.min_roundness),
+        None => {
+            let sample = frames_subset(
+                &recording,
+                &sample_frames(frame_count, ROUNDNESS_SAMPLE_FRAMES),
+            );
+            let blobs = detect_recording(&sample, &configs(ROUNDNESS_FLOOR))?;
+            let roundness: Vec<f64> = blobs
+                .iter()
+                .flat_map(|f| f.blobs.iter().map(|b| b.roundness))
+                .collect();
+            roundness_gate(&roundness, None)
+        }
+    };
+    let detections = detect_recording(&recording, &configs(min_roundness.value))?;
+    let (mut views, noise) = views_of(&rig, &detections, frame_count);
+    let synchronised = match &args.time_offsets {
+        Some(arg) => {
+            let synchronised = time_offsets::synchronise(arg, &rig, views, recording.fps)?;
+            crate::announce::say(&time_offsets::summary(&rig, &synchronised));
+            views = synchronised.frames.clone();
+            Some(synchronised)
+        }
+        None => None,
+    };
+
+    // The other gates from a sample of the detected frames.
+    let sampled: Vec<Views> = sample_frames(frame_count, GATE_SAMPLE_FRAMES)
+        .into_iter()
+        .map(|f| views[f].clone())
+        .collect();
+    let gates = measure_gates(&rig, &tool, &sampled, min_roundness, &overrides);
+    eprint!("{gates}");
+    let config = gates.track_config();
+    check_identifiable(&tool, &config.identify)
+        .with_context(|| format!("{}", args.tool.display()))
+        .rejected()?;
+
+    let tracker = Tracker::new(&rig, &tool, config);
+    let tracks: Vec<FrameTrack> = {
+        use rayon::prelude::*;
+        views.par_iter().map(|v| tracker.track_frame(v)).collect()
+    };
+    let mut trajectory = trajectory_from_tracks(&tracks, recording.fps);
+    if let Some(synchronised) = &synchronised {
+        // A frame whose blobs could not all be moved to the common time is degraded.
+        for (sample, issues) in trajectory.samples.iter_mut().zip(&synchronised.issues) {
+            if sample.status == Status::Ok && !issues.is_empty() {
+                sample.status = Status::Degraded;
+            }
         }
     }
+    if trajectory.samples.iter().all(|s| s.pose.is_none()) {
+        return Err(anyhow::Error::new(ToolNotFound(not_found_message(
+            &tool.name, &tracks,
+        ))));
+    }
+    for (sample, std) in trajectory
+        .samples
+        .iter_mut()
+        .zip(tip_std_mm(&rig, &tool, &tracks, &noise))
+    {
+        sample.tip_std_mm = std;
+    }
     let outputs = OutputSet::new();
-    outputs.add(&args.output, trajectory_csv(&trajectory).as_bytes())?;
+    outputs.add(
+        &args.output,
+        trajectory_text(&args.output, &trajectory)?.as_bytes(),
+    )?;
     if let Some(path) = &args.markers_out {
         outputs.add(path, markers_csv(&tracks).as_bytes())?;
     }
     if let Some(path) = &args.diagnostics {
-        outputs.add(path, diagnostics_csv(&tracks).as_bytes())?;
+        let issues = synchronised.as_ref().map(|s| s.issues.as_slice());
+        outputs.add(path, diagnostics_csv(&tracks, issues).as_bytes())?;
+    }
+    if let (Some(path), Some(synchronised)) = (&args.time_offsets_out, &synchronised) {
+        let json = time_offsets::offsets_json(&rig, &synchronised.offsets)?;
+        outputs.add(path, json.as_bytes())?;
+    }
+    if let Some(path) = &gates_json {
+        let json = serde_json::to_string_pretty(&gates).context("gates as JSON")?;
+        outputs.add(path, json.as_bytes())?;
     }
     let written = outputs.commit()?;
     Ok((trajectory, written))
 }
 
-/// Root mean square of `values`; 0 for none.
-pub(crate) fn rms(values: &[f64]) -> f64 {
-    (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt()
+/// "tool 'x' not found in any of N frames", with the most common reasons.
+fn not_found_message(tool: &str, tracks: &[FrameTrack]) -> String {
+    let mut reasons: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
+    for t in tracks {
+        *reasons.entry(t.reason()).or_default() += 1;
+    }
+    let mut common: Vec<(String, usize)> = reasons.into_iter().collect();
+    common.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let listed: Vec<String> = common
+        .iter()
+        .take(3)
+        .map(|(reason, n)| format!("{n} x {reason}"))
+        .collect();
+    format!(
+        "tool '{tool}' not found in any of {} frames ({}); is it the right tool file? see `teachcam doctor`",
+        tracks.len(),
+        listed.join("; ")
+    )
 }
 
 fn markers_csv(tracks: &[FrameTrack]) -> String {
@@ -210,13 +455,30 @@ fn markers_csv(tracks: &[FrameTrack]) -> String {
     out
 }
 
-fn diagnostics_csv(tracks: &[FrameTrack]) -> String {
-    let mut out =
-        String::from("frame,status,reason,points,markers,views_per_marker,max_residual_px\n");
+/// The per-frame diagnostics; with time offsets, a last column `resampling` lists what could
+/// not be moved to the common time, and such a frame's status is `degraded`.
+fn diagnostics_csv(tracks: &[FrameTrack], resampling: Option<&[Vec<ResampleIssue>]>) -> String {
+    let mut out = String::from(
+        "frame,status,reason,points,markers,views_per_marker,max_residual_px,combinations",
+    );
+    out.push_str(if resampling.is_some() {
+        ",resampling\n"
+    } else {
+        "\n"
+    });
     for (frame, track) in tracks.iter().enumerate() {
-        let (status, reason) = match &track.outcome {
-            Ok(_) => ("tracked", String::new()),
-            Err(lost) => ("lost", lost.to_string().replace(',', ";")),
+        let issues: Vec<String> = resampling
+            .and_then(|r| r.get(frame))
+            .map(|issues| {
+                issues
+                    .iter()
+                    .map(|i| i.to_string().replace(',', ";"))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let status = match track.status() {
+            Status::Ok if !issues.is_empty() => Status::Degraded,
+            status => status,
         };
         let views: Vec<String> = track
             .views_per_marker()
@@ -228,13 +490,19 @@ fn diagnostics_csv(tracks: &[FrameTrack]) -> String {
             .iter()
             .map(|p| p.residual_px)
             .fold(0.0, f64::max);
-        let _ = writeln!(
+        let _ = write!(
             out,
-            "{frame},{status},{reason},{},{},{},{max_residual:.4}",
+            "{frame},{status},{},{},{},{},{max_residual:.4},{}",
+            track.reason().replace(',', ";"),
             track.points.len(),
             track.labels.len(),
-            views.join(" ")
+            views.join(" "),
+            track.combinations
         );
+        if resampling.is_some() {
+            let _ = write!(out, ",{}", issues.join(" | "));
+        }
+        out.push('\n');
     }
     out
 }

@@ -16,6 +16,14 @@
 //! valid points; the model is registered onto them with the scale fixed to 1
 //! ([`crate::register`], paper §II-C). Fewer than three markers, a refused registration or a
 //! residual above the limit leave an explicit gap.
+//!
+//! Identification refuses what is not there: a frame is *confident* when every marker of the
+//! tool is identified with no rival labelling. Without a single confident frame the tool is not
+//! in the data and every frame is a gap (a cloud of body markers holds chance triangles at a
+//! tool's distances, never the whole tool). The registration gate is learned from the
+//! confident frames ([`crate::track::gates::registration_gate`]); a frame with fewer markers
+//! or a residual beyond it is `degraded` or `outlier`, beyond three times it (or the
+//! configured limit) a gap; a frame with a rival labelling is a gap.
 
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -27,8 +35,9 @@ use crate::geometry::{FrameIndex, MarkerId, Point3, Pose, pose_from_parts};
 use crate::identify::{IdentifyConfig, identify};
 use crate::register::{Scale, register};
 use crate::tool::Tool;
-use crate::track::pose_from_markers;
-use crate::trajectory::{Sample, Trajectory};
+use crate::track::gates::{MIN_SAMPLES, registration_gate};
+use crate::track::{OUTLIER_LIMIT, pose_from_markers};
+use crate::trajectory::{Sample, Status, Trajectory};
 
 /// Rounds of alignment onto the mean shape (the first aligns onto frame one's shape; a second
 /// round removes that frame's noise from the reference; more change nothing measurable).
@@ -241,33 +250,100 @@ pub fn track_markers(
             });
         }
     }
-    let samples = (0..points.frame_count())
-        .map(|f| {
-            let time_s = f as f64 / points.rate_hz;
-            let markers_in_world: BTreeMap<MarkerId, Point3> = match selection {
-                MarkerSelection::Labels(columns) => columns
+    let n = tool.markers_in_tool.len();
+    // Each frame's markers, and those of a rival labelling as large.
+    type Markers = BTreeMap<MarkerId, Point3>;
+    let frames: Vec<(Markers, Option<Markers>)> = (0..points.frame_count())
+        .map(|f| match selection {
+            MarkerSelection::Labels(columns) => {
+                let markers = columns
                     .iter()
                     .enumerate()
                     .filter_map(|(k, &c)| {
                         let s = points.sample(FrameIndex(f), c)?;
                         Some((MarkerId(k), Point3::from(s.position.coords * scale)))
                     })
-                    .collect(),
-                MarkerSelection::Identify(identify_config) => {
-                    let all: Vec<Point3> = points
-                        .frame(FrameIndex(f))
-                        .unwrap_or_default()
-                        .iter()
-                        .flatten()
-                        .map(|s| Point3::from(s.position.coords * scale))
-                        .collect();
-                    let found = identify(&tool.markers_in_tool, &all, identify_config);
-                    found.labels.iter().map(|(m, &i)| (*m, all[i])).collect()
-                }
+                    .collect();
+                (markers, None)
+            }
+            MarkerSelection::Identify(identify_config) => {
+                let all: Vec<Point3> = points
+                    .frame(FrameIndex(f))
+                    .unwrap_or_default()
+                    .iter()
+                    .flatten()
+                    .map(|s| Point3::from(s.position.coords * scale))
+                    .collect();
+                let found = identify(&tool.markers_in_tool, &all, identify_config);
+                let at = |labels: &BTreeMap<MarkerId, usize>| -> Markers {
+                    labels.iter().map(|(m, &i)| (*m, all[i])).collect()
+                };
+                (at(&found.labels), found.rival.as_ref().map(at))
+            }
+        })
+        .collect();
+    let hard_limit_mm = config.max_registration_rms_mm;
+    let gate_mm = match selection {
+        MarkerSelection::Labels(_) => hard_limit_mm,
+        MarkerSelection::Identify(_) => {
+            let confident: Vec<f64> = frames
+                .iter()
+                .filter(|(markers, rival)| rival.is_none() && markers.len() == n)
+                .filter_map(|(markers, _)| pose_from_markers(tool, markers, hard_limit_mm).ok())
+                .map(|p| p.rms_mm)
+                .collect();
+            if confident.is_empty() {
+                // The tool is not in the data: no frame may pose on chance matches.
+                return Ok(Trajectory {
+                    samples: (0..points.frame_count())
+                        .map(|f| Sample::gap(FrameIndex(f), f as f64 / points.rate_hz))
+                        .collect(),
+                });
+            }
+            // With too few confident frames to measure a gate, the worst they showed is it.
+            let gate = if confident.len() < MIN_SAMPLES {
+                confident.iter().copied().fold(0.0, f64::max)
+            } else {
+                registration_gate(&confident, None).value
             };
-            match pose_from_markers(tool, &markers_in_world, config.max_registration_rms_mm) {
-                Ok(p) => Sample::measured(FrameIndex(f), time_s, p),
-                Err(_) => Sample::gap(FrameIndex(f), time_s),
+            gate.min(hard_limit_mm)
+        }
+    };
+    let samples = frames
+        .iter()
+        .enumerate()
+        .map(|(f, (markers, rival))| {
+            let time_s = f as f64 / points.rate_hz;
+            let limit_mm = (OUTLIER_LIMIT * gate_mm).min(hard_limit_mm);
+            let pose = pose_from_markers(tool, markers, limit_mm);
+            // A rival labelling that fits within the margin (the same rule as `track`'s) makes
+            // the frame a gap; one that lands on the same pose is no rival.
+            let rivalled = match (&pose, rival) {
+                (Ok(p), Some(rival)) => pose_from_markers(tool, rival, limit_mm).is_ok_and(|r| {
+                    let same = (r.tip_in_world - p.tip_in_world).norm() < 1e-6
+                        && r.world_from_tool
+                            .rotation
+                            .angle_to(&p.world_from_tool.rotation)
+                            < 1e-9;
+                    !same && r.rms_mm <= gate_mm.max(2.0 * p.rms_mm)
+                }),
+                _ => false,
+            };
+            match pose {
+                Ok(p) if !rivalled => {
+                    let status = if p.rms_mm > gate_mm {
+                        Status::Outlier
+                    } else if p.markers < n {
+                        Status::Degraded
+                    } else {
+                        Status::Ok
+                    };
+                    Sample {
+                        status,
+                        ..Sample::measured(FrameIndex(f), time_s, p)
+                    }
+                }
+                _ => Sample::gap(FrameIndex(f), time_s),
             }
         })
         .collect();

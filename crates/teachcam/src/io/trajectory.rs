@@ -2,18 +2,21 @@
 //! (`truth.csv`), read by `smooth`, `export` and `check`.
 //!
 //! ```text
-//! frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,filled,tip_std_mm
+//! frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,filled,tip_std_mm,status
 //! ```
 //! The first fourteen columns are the contract's, in order; `filled` (1 where the smoother
-//! filled a gap) and `tip_std_mm` are ours; other columns are allowed and ignored. A frame
-//! without a pose keeps its row with every pose field empty.
+//! filled a gap), `tip_std_mm` and `status` (`ok`, `degraded`, `outlier`, `lost`:
+//! [`Status`]) follow; other columns are allowed and ignored. A frame without a pose keeps its
+//! row with every pose field empty and status `lost`. Files written before `status` existed
+//! still read: their status is `ok` where a pose is and `lost` where none is. Nothing that is
+//! not finite is ever written.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use super::{FileError, read_text, write_atomically};
 use crate::geometry::{FrameIndex, Point3, Quat, pose_from_parts};
-use crate::trajectory::{PoseSource, Sample, ToolPose, Trajectory};
+use crate::trajectory::{PoseSource, Sample, Status, ToolPose, Trajectory};
 
 /// The contract's columns, in order.
 pub const CONTRACT_COLUMNS: [&str; 14] = [
@@ -22,18 +25,63 @@ pub const CONTRACT_COLUMNS: [&str; 14] = [
 ];
 
 /// Columns this writer adds after the contract's.
-pub const EXTRA_COLUMNS: [&str; 2] = ["filled", "tip_std_mm"];
+pub const EXTRA_COLUMNS: [&str; 3] = ["filled", "tip_std_mm", "status"];
 
 /// Tolerance on `|q| - 1` for quaternions read from CSV: written numbers are rounded, and other
 /// tools print six decimals.
 const CSV_QUATERNION_TOLERANCE: f64 = 1e-5;
 
-/// Writes a trajectory CSV whole.
+/// Writes a trajectory CSV whole, after checking that every number in it is finite.
 ///
 /// # Errors
-/// [`FileError::Write`].
+/// [`FileError::Invalid`] naming the first frame and field that is not finite (nothing is
+/// written then); [`FileError::Write`].
 pub fn write_trajectory(path: &Path, trajectory: &Trajectory) -> Result<(), FileError> {
-    write_atomically(path, trajectory_csv(trajectory).as_bytes())
+    write_atomically(path, trajectory_text(path, trajectory)?.as_bytes())
+}
+
+/// The CSV text of a trajectory for `path`, after checking that every number in it is finite.
+///
+/// # Errors
+/// [`FileError::Invalid`] naming `path`, the first frame and field that is not finite.
+pub fn trajectory_text(path: &Path, trajectory: &Trajectory) -> Result<String, FileError> {
+    check_finite(trajectory).map_err(|reason| FileError::invalid(path, reason))?;
+    Ok(trajectory_csv(trajectory))
+}
+
+/// The first field of a trajectory that is not finite, as a message naming the frame.
+///
+/// # Errors
+/// The message.
+pub fn check_finite(trajectory: &Trajectory) -> Result<(), String> {
+    for s in &trajectory.samples {
+        let mut fields = vec![("time_s", s.time_s)];
+        if let Some(p) = &s.pose {
+            let t = p.world_from_tool.translation.vector;
+            let q = p.world_from_tool.rotation.quaternion();
+            fields.extend([
+                ("x_mm", t.x),
+                ("y_mm", t.y),
+                ("z_mm", t.z),
+                ("qw", q.w),
+                ("qx", q.i),
+                ("qy", q.j),
+                ("qz", q.k),
+                ("tip_x_mm", p.tip_in_world.x),
+                ("tip_y_mm", p.tip_in_world.y),
+                ("tip_z_mm", p.tip_in_world.z),
+                ("rms_mm", p.rms_mm),
+            ]);
+        }
+        fields.extend(s.tip_std_mm.map(|v| ("tip_std_mm", v)));
+        if let Some((name, value)) = fields.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(format!(
+                "frame {}: {name} is {value}, not a finite number; nothing written",
+                s.frame.0
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The CSV text of a trajectory.
@@ -77,7 +125,12 @@ pub fn trajectory_csv(trajectory: &Trajectory) -> String {
         if let Some(std) = sample.tip_std_mm {
             let _ = write!(out, "{std:.6}");
         }
-        out.push('\n');
+        let status = match sample.pose {
+            Some(_) if sample.status == Status::Lost => Status::Degraded,
+            Some(_) => sample.status,
+            None => Status::Lost,
+        };
+        let _ = writeln!(out, ",{status}");
     }
     out
 }
@@ -116,6 +169,7 @@ pub fn parse_trajectory(path: &Path, text: &str) -> Result<Trajectory, FileError
     }
     let filled_column = columns.iter().position(|c| *c == "filled");
     let std_column = columns.iter().position(|c| *c == "tip_std_mm");
+    let status_column = columns.iter().position(|c| *c == "status");
     let mut samples: Vec<Sample> = Vec::new();
     for (line, row) in lines {
         if row.trim().is_empty() {
@@ -129,7 +183,7 @@ pub fn parse_trajectory(path: &Path, text: &str) -> Result<Trajectory, FileError
                 format!("{} fields, header has {}", fields.len(), columns.len()),
             ));
         }
-        let sample = parse_row(&fields, filled_column, std_column)
+        let sample = parse_row(&fields, filled_column, std_column, status_column)
             .map_err(|m| FileError::invalid_line(path, line, m))?;
         if let Some(previous) = samples.last() {
             if sample.frame <= previous.frame {
@@ -174,6 +228,7 @@ fn parse_row(
     fields: &[&str],
     filled_column: Option<usize>,
     std_column: Option<usize>,
+    status_column: Option<usize>,
 ) -> Result<Sample, String> {
     let frame: usize = fields[0]
         .parse()
@@ -245,12 +300,30 @@ fn parse_row(
                 .ok_or_else(|| format!("tip_std_mm: '{text}' is not a non-negative number"))?,
         ),
     };
+    let status = match status_column.map(|c| fields[c]) {
+        None | Some("") if pose.is_some() => Status::Ok,
+        None | Some("") => Status::Lost,
+        Some(text) => {
+            let status = Status::from_name(text)
+                .ok_or_else(|| format!("status: '{text}' is not ok, degraded, outlier or lost"))?;
+            match (status, pose.is_some()) {
+                (Status::Lost, true) => {
+                    return Err("status: 'lost' on a row with a pose".into());
+                }
+                (Status::Ok | Status::Degraded | Status::Outlier, false) => {
+                    return Err(format!("status: '{text}' on a row without a pose"));
+                }
+                _ => status,
+            }
+        }
+    };
     Ok(Sample {
         frame: FrameIndex(frame),
         time_s,
         pose,
         source,
         tip_std_mm,
+        status,
     })
 }
 
@@ -282,11 +355,16 @@ mod tests {
         samples[5].pose = None;
         samples[6].source = PoseSource::Filled;
         samples[7].tip_std_mm = Some(0.05);
+        samples[8].status = Status::Outlier;
+        samples[9].status = Status::Degraded;
         let t = Trajectory { samples };
         let text = trajectory_csv(&t);
         let back = parse_trajectory(Path::new("t.csv"), &text).unwrap();
         assert_eq!(back.len(), 40);
         assert!(back.samples[5].pose.is_none());
+        let statuses: Vec<Status> = back.samples[4..10].iter().map(|s| s.status).collect();
+        use Status::{Degraded, Lost, Ok, Outlier};
+        assert_eq!(statuses, [Ok, Lost, Ok, Ok, Outlier, Degraded]);
         assert_eq!(back.samples[6].source, PoseSource::Filled);
         assert_eq!(back.samples[7].tip_std_mm, Some(0.05));
         for (a, b) in t.samples.iter().zip(&back.samples) {
@@ -314,6 +392,52 @@ mod tests {
             "continuity should carry qw below zero past 180 degrees"
         );
         assert!(qw.windows(2).all(|w| (w[0] - w[1]).abs() < 0.1));
+    }
+
+    #[test]
+    fn files_without_a_status_column_still_read() {
+        let header = CONTRACT_COLUMNS.join(",");
+        let text = format!("{header}\n0,0.0,1,2,3,1,0,0,0,4,5,6,4,0.01\n1,0.1,,,,,,,,,,,,\n");
+        let t = parse_trajectory(Path::new("old.csv"), &text).unwrap();
+        assert_eq!(t.samples[0].status, Status::Ok);
+        assert_eq!(t.samples[1].status, Status::Lost);
+    }
+
+    #[test]
+    fn a_status_that_contradicts_the_row_is_refused() {
+        let header = format!("{},status", CONTRACT_COLUMNS.join(","));
+        for (row, needle) in [
+            (
+                "0,0.0,1,2,3,1,0,0,0,4,5,6,4,0.01,lost",
+                "'lost' on a row with a pose",
+            ),
+            ("0,0.0,,,,,,,,,,,,,ok", "'ok' on a row without a pose"),
+            ("0,0.0,1,2,3,1,0,0,0,4,5,6,4,0.01,fine", "'fine' is not ok"),
+        ] {
+            let message = parse_trajectory(Path::new("t.csv"), &format!("{header}\n{row}\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(message.contains(needle), "{needle} not in {message}");
+        }
+    }
+
+    #[test]
+    fn nothing_that_is_not_finite_is_written() {
+        let mut t = Trajectory {
+            samples: (0..3).map(|i| sample(i, 0.1)).collect(),
+        };
+        t.samples[1].tip_std_mm = Some(f64::NAN);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        let message = write_trajectory(&path, &t).unwrap_err().to_string();
+        assert!(message.contains("frame 1: tip_std_mm is NaN"), "{message}");
+        assert!(!path.exists());
+        t.samples[1].tip_std_mm = None;
+        if let Some(p) = &mut t.samples[2].pose {
+            p.tip_in_world.z = f64::INFINITY;
+        }
+        let message = write_trajectory(&path, &t).unwrap_err().to_string();
+        assert!(message.contains("frame 2: tip_z_mm is inf"), "{message}");
     }
 
     #[test]

@@ -24,10 +24,15 @@ use crate::geometry::{CameraId, Pixel};
 pub(super) struct CameraTracks {
     pub(super) tracks: Vec<BlobTrack>,
     covering: Vec<Vec<usize>>,
+    interpolation_points: usize,
 }
 
 impl CameraTracks {
-    pub(super) fn new(tracks: Vec<BlobTrack>, frame_count: usize) -> Self {
+    pub(super) fn new(
+        tracks: Vec<BlobTrack>,
+        frame_count: usize,
+        interpolation_points: usize,
+    ) -> Self {
         let mut covering = vec![Vec::new(); frame_count];
         for (i, t) in tracks.iter().enumerate() {
             for frame in covering
@@ -38,11 +43,15 @@ impl CameraTracks {
                 frame.push(i);
             }
         }
-        Self { tracks, covering }
+        Self {
+            tracks,
+            covering,
+            interpolation_points,
+        }
     }
 
     /// Every track's position at the fractional frame `at`, with the track's index: only
-    /// exact and centred quintic samples, so that every residual carries the same order of
+    /// exact samples and those interpolated through the most points, centred, so that every residual carries the same order of
     /// interpolation error whatever the offset.
     fn samples(&self, at: f64) -> Vec<(usize, Pixel)> {
         if at.is_nan() || at < 0.0 {
@@ -58,10 +67,11 @@ impl CameraTracks {
     }
 
     fn sample(&self, track: usize, at: f64) -> Option<TrackSample> {
-        let sample = self.tracks.get(track)?.sample(at)?;
+        let most = self.interpolation_points;
+        let sample = self.tracks.get(track)?.sample(at, most)?;
         let consistent = match sample.stencil {
             Stencil::Exact => true,
-            Stencil::Polynomial { points, centred } => points == 6 && centred,
+            Stencil::Polynomial { points, centred } => points == most && centred,
         };
         consistent.then_some(sample)
     }

@@ -43,7 +43,13 @@ pub fn resample_views(
         let mut moved: Vec<Vec<Pixel>> = vec![Vec::new(); frames.len()];
         let mut worst_error: Vec<f64> = vec![0.0; frames.len()];
         for track in &tracks {
-            place_track(track, offset_periods, &mut moved, &mut worst_error);
+            place_track(
+                track,
+                offset_periods,
+                config.interpolation_points,
+                &mut moved,
+                &mut worst_error,
+            );
         }
         for (frame, pixels) in moved.into_iter().enumerate() {
             let before = blobs[frame].len();
@@ -74,6 +80,7 @@ pub fn resample_views(
 fn place_track(
     track: &BlobTrack,
     offset_periods: f64,
+    interpolation_points: usize,
     moved: &mut [Vec<Pixel>],
     worst_error: &mut [f64],
 ) {
@@ -85,7 +92,7 @@ fn place_track(
     }
     let high = (high as usize).min(moved.len().saturating_sub(1));
     for frame in low..=high {
-        let Some(sample) = track.sample(frame as f64 - offset_periods) else {
+        let Some(sample) = track.sample(frame as f64 - offset_periods, interpolation_points) else {
             continue;
         };
         if let Some(pixels) = moved.get_mut(frame) {

@@ -5,16 +5,17 @@
 //! and the runner-up lies clearly farther (`link_ratio`); otherwise the track ends. A marker
 //! hidden for a frame therefore ends one track and starts another: nothing is bridged.
 //!
-//! Interpolation: the Lagrange polynomial through the six samples around the point (a
-//! quintic: error `O(h⁶ p⁽⁶⁾)`; on a 30 Hz recording of motion up to 5 Hz, `ωh ≤ 1`, about a
-//! twentieth of a cubic's), the window centred on the interval where the track allows and
-//! shifted inside it near its ends (so a track's end is still interpolated, not extrapolated,
-//! at a few times the centred error); the cubic through four on tracks of four or five samples;
-//! nothing on shorter tracks, whose motion cannot be followed. Each sample also carries the
-//! value of the polynomial through the same window without its node farthest from the point,
-//! one order lower: their difference estimates that lower order's error and bounds the chosen
-//! one's (de Boor, *A Practical Guide to Splines*, ch. I–II). The estimate feeds the time
-//! offset's systematic uncertainty and the resampled frames' "uncertain" report.
+//! Interpolation: the Lagrange polynomial through the `n` samples around the point (`n` even,
+//! 8 by default: degree 7, error `O(h⁸ p⁽⁸⁾)`; on a 30 Hz recording of motion up to 5 Hz,
+//! `ωh ≤ 1`, each two more points divide the error by about five), the window centred on the
+//! interval where the track allows and shifted inside it near its ends (so a track's end is
+//! still interpolated, not extrapolated, at a few times the centred error); fewer points on
+//! shorter tracks, down to 4; nothing on tracks shorter than that, whose motion cannot be
+//! followed. Each sample also carries the value of the polynomial through the same window
+//! without its node farthest from the point, one order lower: their difference estimates that
+//! lower order's error and bounds the chosen one's (de Boor, *A Practical Guide to Splines*,
+//! ch. I–II). The estimate feeds the time offset's systematic uncertainty and the resampled
+//! frames' "uncertain" report.
 
 use crate::geometry::Pixel;
 
@@ -34,7 +35,8 @@ pub struct BlobTrack {
 pub enum Stencil {
     /// At a sample itself: no interpolation.
     Exact,
-    /// A polynomial through `points` samples (6 or 4), centred on the interval or not.
+    /// A polynomial through `points` samples (an even number, at least 4), centred on the
+    /// interval or not.
     Polynomial {
         /// Samples used.
         points: usize,
@@ -76,10 +78,11 @@ impl BlobTrack {
         at >= self.first_frame as f64 && at <= self.last_frame() as f64
     }
 
-    /// The track at the fractional frame index `at`; `None` outside the frames it spans and
-    /// between the samples of a track shorter than four.
+    /// The track at the fractional frame index `at`, interpolated through at most
+    /// `max_points` samples (even, ≥ 4; fewer where the track is shorter); `None` outside the
+    /// frames it spans and between the samples of a track shorter than four.
     #[must_use]
-    pub fn sample(&self, at: f64) -> Option<TrackSample> {
+    pub fn sample(&self, at: f64, max_points: usize) -> Option<TrackSample> {
         if !at.is_finite() || !self.spans(at) {
             return None;
         }
@@ -95,7 +98,7 @@ impl BlobTrack {
                 stencil: Stencil::Exact,
             });
         }
-        let points = [6, 4].into_iter().find(|&m| n >= m)?;
+        let points = (4..=max_points.max(4)).rev().step_by(2).find(|&m| n >= m)?;
         // The window [start, start + points) centred on [k, k + 1], shifted to fit the track.
         let centred_start = k as isize - (points as isize / 2 - 1);
         let start = centred_start.clamp(0, (n - points) as isize) as usize;
@@ -306,31 +309,31 @@ mod tests {
         let points: Vec<(f64, f64)> = (0..8).map(|k| motion(k as f64)).collect();
         let track = track_of(&points);
         for at in [3.5, 4.5, 5.3, 5.5, 6.9, 7.25, 9.5] {
-            let s = track.sample(at).unwrap();
+            let s = track.sample(at, 6).unwrap();
             let (x, y) = motion(at - 3.0);
             assert!((s.position.x - x).abs() < 1e-9, "x at {at}");
             assert!((s.position.y - y).abs() < 1e-9, "y at {at}");
             // One order lower misses the fifth-order term: the estimate sees it.
             assert!(s.error_px() > 1e-4, "at {at}");
         }
-        assert_eq!(track.sample(5.5).unwrap().stencil, CENTRED_QUINTIC);
+        assert_eq!(track.sample(5.5, 6).unwrap().stencil, CENTRED_QUINTIC);
         assert_eq!(
-            track.sample(3.5).unwrap().stencil,
+            track.sample(3.5, 6).unwrap().stencil,
             Stencil::Polynomial {
                 points: 6,
                 centred: false
             }
         );
-        let exact = track.sample(4.0).unwrap();
+        let exact = track.sample(4.0, 6).unwrap();
         assert_eq!(exact.stencil, Stencil::Exact);
         assert_eq!(exact.position, track.positions[1]);
-        assert_eq!(track.sample(10.0).unwrap().position, track.positions[7]);
-        assert!(track.sample(2.99).is_none());
-        assert!(track.sample(10.01).is_none());
+        assert_eq!(track.sample(10.0, 6).unwrap().position, track.positions[7]);
+        assert!(track.sample(2.99, 6).is_none());
+        assert!(track.sample(10.01, 6).is_none());
         // Three samples cannot be followed between frames, only at them.
         let short = track_of(&points[..3]);
-        assert!(short.sample(3.5).is_none());
-        assert!(short.sample(4.0).is_some());
+        assert!(short.sample(3.5, 6).is_none());
+        assert!(short.sample(4.0, 6).is_some());
     }
 
     #[test]
@@ -338,14 +341,14 @@ mod tests {
         let motion = |t: f64| (t.powi(4), 0.0);
         let points: Vec<(f64, f64)> = (0..8).map(|k| motion(k as f64)).collect();
         let track = track_of(&points);
-        let s = track.sample(6.5).unwrap();
+        let s = track.sample(6.5, 6).unwrap();
         let truth = motion(3.5).0;
         // The quintic and the quartic below it are exact on a quartic: no error to see.
         assert!((s.position.x - truth).abs() < 1e-9);
         assert!(s.error_px() < 1e-9);
         let motion = |t: f64| (t.powi(5), 0.0);
         let points: Vec<(f64, f64)> = (0..8).map(|k| motion(k as f64)).collect();
-        let s = track_of(&points).sample(6.5).unwrap();
+        let s = track_of(&points).sample(6.5, 6).unwrap();
         let truth = motion(3.5).0;
         assert!((s.position.x - truth).abs() < 1e-9);
         assert!((s.error_px() - (s.lower_order.x - truth).abs()).abs() < 1e-9);

@@ -1,0 +1,92 @@
+//! Each tracked frame's tip uncertainty (`tip_std_mm`), honest about frames that fit worse
+//! than usual.
+//!
+//! Model. The first-order tip uncertainty ([`crate::metrology::first_order`]) at the frame's
+//! pose for its blobs' predicted centre noise, scaled to the pixel error the recording's
+//! triangulation residuals show (the variance factor `σ̂ / σ_blobs`, with `σ̂` from
+//! [`crate::metrology::residual_noise_px`] over every identified marker); then inflated by how
+//! far this frame's own residuals exceed the recording's typical ones:
+//! ```text
+//! f = max(1, s_reg / median(s_reg), σ̂_frame / σ̂)      s_reg = rms · sqrt(n / (3n − 6))
+//! ```
+//! `s_reg` is the registration residual per degree of freedom (`n` markers give `3n` numbers
+//! for 6 unknowns), so frames with three and four markers compare; `σ̂_frame` is the residual
+//! scale of the frame's own markers. A frame whose markers fit 20 times worse than usual has
+//! an error about 20 times the usual one (a merged blob, a reflection), and says so.
+
+use crate::camera::Rig;
+use crate::metrology::{first_order, residual_noise_px};
+use crate::tool::Tool;
+use crate::track::FrameTrack;
+use crate::track::gates::median;
+
+/// Root mean square of `values`; 0 for none.
+#[must_use]
+pub fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt()
+}
+
+/// Registration residual per degree of freedom, `rms · sqrt(n / (3n − 6))`.
+fn registration_scale_mm(rms_mm: f64, markers: usize) -> Option<f64> {
+    let n = markers as f64;
+    (markers >= 3).then(|| rms_mm * (n / (3.0 * n - 6.0)).sqrt())
+}
+
+/// The `tip_std_mm` of every frame of `tracks` (`None` without a pose), from each frame's
+/// blobs' predicted centre noise per axis (`blob_noise_px[frame]`, pixels); see the module
+/// docs.
+#[must_use]
+pub fn tip_std_mm(
+    rig: &Rig,
+    tool: &Tool,
+    tracks: &[FrameTrack],
+    blob_noise_px: &[Vec<f64>],
+) -> Vec<Option<f64>> {
+    let predicted_px = rms(&blob_noise_px.concat());
+    let shown_px = residual_noise_px(
+        tracks
+            .iter()
+            .flat_map(|t| t.labels.values().map(|&p| &t.points[p])),
+    );
+    let scale = match shown_px {
+        Some(shown) if predicted_px > 0.0 => shown / predicted_px,
+        _ => 1.0,
+    };
+    let registration: Vec<f64> = tracks
+        .iter()
+        .filter_map(|t| {
+            let pose = t.outcome.as_ref().ok()?;
+            registration_scale_mm(pose.rms_mm, pose.markers)
+        })
+        .collect();
+    let typical_registration_mm = median(&registration).filter(|m| *m > 0.0);
+    tracks
+        .iter()
+        .enumerate()
+        .map(|(frame, track)| {
+            let pose = track.outcome.as_ref().ok()?;
+            let noise = blob_noise_px.get(frame).map_or(0.0, |n| rms(n));
+            let frame_px = scale * noise;
+            if frame_px <= 0.0 {
+                return None;
+            }
+            let base = first_order(rig, tool, &pose.world_from_tool, frame_px)
+                .ok()?
+                .tip_rms_mm;
+            let by_registration = match (
+                registration_scale_mm(pose.rms_mm, pose.markers),
+                typical_registration_mm,
+            ) {
+                (Some(s), Some(typical)) => s / typical,
+                _ => 1.0,
+            };
+            let own_px = residual_noise_px(track.labels.values().map(|&p| &track.points[p]));
+            let by_residual = match (own_px, shown_px) {
+                (Some(own), Some(shown)) if shown > 0.0 => own / shown,
+                _ => 1.0,
+            };
+            let inflation = 1_f64.max(by_registration).max(by_residual);
+            Some(base * inflation).filter(|v| v.is_finite())
+        })
+        .collect()
+}
