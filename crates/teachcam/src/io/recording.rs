@@ -11,11 +11,9 @@
 //! [`crate::source`].
 
 use std::collections::BTreeMap;
-use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
-use image::codecs::png::PngDecoder;
-use image::{DynamicImage, GrayImage, ImageBuffer, ImageDecoder, Luma};
+use image::{DynamicImage, GrayImage, ImageBuffer, Luma};
 use serde::{Deserialize, Serialize};
 
 use super::{FileError, parse_json, read_text, write_atomically, write_json};
@@ -105,12 +103,6 @@ impl Recording {
         self.cameras.iter().find(|c| c.name == name)
     }
 }
-
-/// Largest frame accepted, pixels (64 MP): above every machine-vision sensor in common use (the
-/// paper's cameras have 1.3 MP, large industrial ones 25–50 MP), and small enough that the
-/// frames in flight of a parallel pipeline fit in memory (64 MB each at 8 bits). Checked from
-/// the file's header or the video's stream information, before any decoding.
-pub const MAX_FRAME_PIXELS: u64 = 64_000_000;
 
 /// File extensions read as one camera's video (any container FFmpeg reads; matched without
 /// case).
@@ -436,11 +428,17 @@ pub fn check_recording_against_rig(recording: &Recording, rig: &Rig) -> Result<(
     Ok(())
 }
 
-/// Decodes one PNG frame, checking its size from the header before decoding: refused above
-/// [`MAX_FRAME_PIXELS`] and, when `expected_size` is given, unless it is that size.
+/// Most pixels a frame may have: the largest machine-vision sensors in use hold about 45
+/// megapixels (8192x5460); at 16 bits such a frame decodes to 90 MB, and frames decode in
+/// parallel, one per thread. A header claiming more is refused before anything is decoded.
+pub const MAX_FRAME_PIXELS: u64 = 50_000_000;
+
+/// Decodes one frame, checking its size when `expected_size` is given. The size is read from
+/// the PNG header first: a frame of the wrong size or over [`MAX_FRAME_PIXELS`] is refused
+/// before it is decoded.
 ///
 /// # Errors
-/// [`FileError`] naming the file: unreadable, not a PNG, truncated, too large or of the wrong
+/// [`FileError`] naming the file: unreadable, not a PNG, truncated, too large, or of the wrong
 /// size.
 pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<GrayFrame, FileError> {
     let bytes = std::fs::read(path).map_err(|source| FileError::Read {
@@ -449,14 +447,10 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
     })?;
     let not_png =
         |e: image::ImageError| FileError::invalid(path, format!("not a readable PNG: {e}"));
-    let decoder = PngDecoder::new(Cursor::new(&bytes)).map_err(not_png)?;
-    let (fw, fh) = decoder.dimensions();
-    if u64::from(fw) * u64::from(fh) > MAX_FRAME_PIXELS {
-        return Err(FileError::invalid(
-            path,
-            format!("image is {fw}x{fh}, above the limit of {MAX_FRAME_PIXELS} pixels"),
-        ));
-    }
+    let (fw, fh) =
+        image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png)
+            .into_dimensions()
+            .map_err(not_png)?;
     if let Some((w, h)) = expected_size
         && (fw, fh) != (w, h)
     {
@@ -465,7 +459,19 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
             format!("image is {fw}x{fh}, the rig says {w}x{h}"),
         ));
     }
-    let image = DynamicImage::from_decoder(decoder).map_err(not_png)?;
+    let pixels = u64::from(fw) * u64::from(fh);
+    if pixels > MAX_FRAME_PIXELS {
+        return Err(FileError::invalid(
+            path,
+            format!(
+                "image is {fw}x{fh} ({:.0} megapixels), more than the {} a frame may have",
+                pixels as f64 / 1e6,
+                MAX_FRAME_PIXELS / 1_000_000
+            ),
+        ));
+    }
+    let image =
+        image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).map_err(not_png)?;
     Ok(GrayFrame::from_dynamic(image))
 }
 
