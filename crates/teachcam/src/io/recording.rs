@@ -480,19 +480,7 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
 /// # Errors
 /// [`FileError::Write`].
 pub fn write_png(path: &Path, image: &GrayImage) -> Result<(), FileError> {
-    let mut bytes = Vec::new();
-    let encoder = image::codecs::png::PngEncoder::new_with_quality(
-        &mut bytes,
-        image::codecs::png::CompressionType::Fast,
-        image::codecs::png::FilterType::Sub,
-    );
-    image
-        .write_with_encoder(encoder)
-        .map_err(|e| FileError::Write {
-            path: path.to_path_buf(),
-            source: std::io::Error::other(e),
-        })?;
-    write_atomically(path, &bytes)
+    encode_png(path, |encoder| image.write_with_encoder(encoder))
 }
 
 /// Encodes a frame at its own bit depth as PNG and writes it atomically (a frame file is
@@ -503,22 +491,26 @@ pub fn write_png(path: &Path, image: &GrayImage) -> Result<(), FileError> {
 pub fn write_frame_png(path: &Path, frame: &GrayFrame) -> Result<(), FileError> {
     match frame {
         GrayFrame::Eight(image) => write_png(path, image),
-        GrayFrame::Sixteen(image) => {
-            let mut bytes = Vec::new();
-            let encoder = image::codecs::png::PngEncoder::new_with_quality(
-                &mut bytes,
-                image::codecs::png::CompressionType::Fast,
-                image::codecs::png::FilterType::Sub,
-            );
-            image
-                .write_with_encoder(encoder)
-                .map_err(|e| FileError::Write {
-                    path: path.to_path_buf(),
-                    source: std::io::Error::other(e),
-                })?;
-            write_atomically(path, &bytes)
-        }
+        GrayFrame::Sixteen(image) => encode_png(path, |encoder| image.write_with_encoder(encoder)),
     }
+}
+
+/// The one PNG encoding of frames (fast deflate, Sub filter), written atomically to `path`.
+fn encode_png(
+    path: &Path,
+    encode: impl FnOnce(image::codecs::png::PngEncoder<&mut Vec<u8>>) -> image::ImageResult<()>,
+) -> Result<(), FileError> {
+    let mut bytes = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new_with_quality(
+        &mut bytes,
+        image::codecs::png::CompressionType::Fast,
+        image::codecs::png::FilterType::Sub,
+    );
+    encode(encoder).map_err(|e| FileError::Write {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    })?;
+    write_atomically(path, &bytes)
 }
 
 /// Writes `recording.json` with the frame rate.
