@@ -199,13 +199,17 @@ pub fn identify(model: &[Point3], points: &[Point3], config: &IdentifyConfig) ->
 /// a dozen points needs, and a bound on the time a crowded frame can take.
 const SEARCH_BUDGET: usize = 200_000;
 
+/// Equally large consistent sets [`consistent_labels`] keeps to look for a rival among.
+const MAX_TIES: usize = 1024;
+
 /// The paper's choice made robust: the largest set of labels in which every pair of labelled
 /// points is at its markers' model distance. Each point tries the markers it voted for, most
 /// votes first (the paper's "the first tries are the more probable"), and then no label;
 /// among equally large sets the one with more votes wins. A stray that matched one distance by
 /// chance can tie a vote, but cannot join a consistent set. Fewer than two labels carry no
 /// evidence, so they give none. The second result is an equally large consistent set that
-/// labels some point differently, when there is one.
+/// labels some point differently, when there is one (a set that only leaves out other markers
+/// of the same labelling is none).
 type Labels = BTreeMap<MarkerId, usize>;
 
 fn consistent_labels(
@@ -234,7 +238,9 @@ fn consistent_labels(
         tolerance: f64,
         best: Vec<(usize, usize)>,
         best_votes: usize,
-        runner_up: Vec<(usize, usize)>,
+        /// Every consistent set as large as the best so far (at most [`MAX_TIES`]).
+        ties: Vec<Vec<(usize, usize)>>,
+        ties_overflowed: bool,
         nodes: usize,
     }
     impl Search<'_> {
@@ -256,11 +262,20 @@ fn consistent_labels(
                 return;
             }
             let Some(&point) = self.order.get(depth) else {
+                if current.len() > self.best.len() {
+                    self.ties.clear();
+                    self.ties_overflowed = false;
+                }
+                if current.len() >= self.best.len() {
+                    if self.ties.len() < MAX_TIES {
+                        self.ties.push(current.clone());
+                    } else {
+                        self.ties_overflowed = true;
+                    }
+                }
                 if (current.len(), votes) > (self.best.len(), self.best_votes) {
-                    self.runner_up = std::mem::replace(&mut self.best, current.clone());
+                    self.best = current.clone();
                     self.best_votes = votes;
-                } else if current.len() > self.runner_up.len() {
-                    self.runner_up = current.clone();
                 }
                 return;
             };
@@ -284,7 +299,8 @@ fn consistent_labels(
         tolerance: config.distance_tolerance_mm,
         best: Vec::new(),
         best_votes: 0,
-        runner_up: Vec::new(),
+        ties: Vec::new(),
+        ties_overflowed: false,
         nodes: 0,
     };
     search.visit(0, &mut Vec::new(), 0);
@@ -296,7 +312,20 @@ fn consistent_labels(
             .map(|&(point, marker)| (MarkerId(marker), point))
             .collect()
     };
-    let rival = (search.runner_up.len() == search.best.len()).then(|| labels(&search.runner_up));
+    // A tie that agrees with the best wherever both label (another subset of the same
+    // labelling, as when one noisy distance leaves out a different marker) is no rival; one
+    // that puts a point on another marker, or a marker on another point, is. Too many ties to
+    // have kept them all count as a rival: the points did not decide.
+    let conflicts = |tie: &[(usize, usize)]| {
+        tie.iter()
+            .any(|&(p, m)| search.best.iter().any(|&(q, n)| (p == q) != (m == n)))
+    };
+    let rival = search
+        .ties
+        .iter()
+        .find(|tie| conflicts(tie))
+        .or(search.ties_overflowed.then_some(&search.best))
+        .map(|tie| labels(tie));
     (labels(&search.best), rival)
 }
 
@@ -591,5 +620,37 @@ mod tests {
             )
             .is_ok()
         );
+    }
+
+    #[test]
+    fn one_noisy_distance_leaves_no_rival_but_a_mirror_triangle_is_one() {
+        // Four markers seen; point 3 moved 0.35 mm along the 2-3 line
+        // pulls that distance out of tolerance (0.3 mm) while its other two stay in.
+        // {0,1,2} and {0,1,3} are then both consistent: two subsets of one labelling, no rival.
+        let model = five_markers()[..4].to_vec();
+        let config = IdentifyConfig::default();
+        let mut points = model.clone();
+        let away = (model[3] - model[2]).normalize();
+        points[3] += away * 0.35;
+        let d = |a: usize, b: usize| (points[a] - points[b]).norm() - (model[a] - model[b]).norm();
+        assert!(d(2, 3).abs() > config.distance_tolerance_mm, "{}", d(2, 3));
+        assert!(
+            d(0, 3).abs() <= config.distance_tolerance_mm
+                && d(1, 3).abs() <= config.distance_tolerance_mm
+        );
+        let id = identify(&model, &points, &config);
+        assert_eq!(id.labels.len(), 3, "{:?}", id.labels);
+        assert!(id.labels.iter().all(|(m, p)| m.0 == *p), "{:?}", id.labels);
+        assert_eq!(id.rival, None);
+
+        // Three markers of an isosceles triangle: its mirror labelling fits as well, a rival.
+        let triangle = [[0.0, 0.0, 0.0], [60.0, 0.0, 0.0], [30.0, 40.0, 0.0]]
+            .iter()
+            .map(|p| Point3::new(p[0], p[1], p[2]))
+            .collect::<Vec<_>>();
+        let id = identify(&triangle, &triangle, &config);
+        assert_eq!(id.labels.len(), 3);
+        let rival = id.rival.expect("the mirror labelling");
+        assert_ne!(rival, id.labels);
     }
 }
