@@ -1,19 +1,17 @@
 //! `teachcam doctor`: why a recording tracks badly, and what to do about it.
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use teachcam::correspond::Views;
-use teachcam::detect::{Blob, DetectConfig};
+use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
-use teachcam::geometry::CameraId;
-use teachcam::io::recording::{check_recording_against_rig, open_recording};
 use teachcam::io::{rig::read_rig, tool::read_tool};
+use teachcam::pipeline::CameraSetup;
 use teachcam::track::{TrackConfig, Tracker};
 
 use crate::Rejected;
-use crate::cmd::detect::detect_recording;
+use crate::cmd::detect::{Frames, detect_folder};
 
 /// Say where a recording's frames are lost, what the data shows, and what to do.
 ///
@@ -75,45 +73,34 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
     }
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
-    let mut recording = open_recording(&args.recording, None).rejected()?;
-    check_recording_against_rig(&recording, &rig).rejected()?;
-    recording.cameras = rig
-        .cameras
+    let recording = detect_folder(&args.recording, None, Frames::All, |_| {
+        Ok(rig
+            .cameras
+            .iter()
+            .map(|camera| CameraSetup {
+                name: camera.name.clone(),
+                detect: DetectConfig {
+                    min_roundness: 0.0,
+                    ..DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far)
+                },
+                size: Some((camera.image_size.width, camera.image_size.height)),
+            })
+            .collect())
+    })?;
+    let kept_roundness = DetectConfig::default().min_roundness;
+    let blobs = recording.blobs_by_camera(&rig);
+    let views: Vec<Views> = blobs
         .iter()
-        .filter_map(|c| recording.camera(&c.name).cloned())
-        .collect();
-    let configs: Vec<DetectConfig> = rig
-        .cameras
-        .iter()
-        .map(|camera| DetectConfig {
-            min_roundness: 0.0,
-            ..DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far)
+        .map(|frame| {
+            frame
+                .iter()
+                .map(|(id, blobs)| {
+                    let kept = blobs.iter().filter(|b| b.roundness >= kept_roundness);
+                    (*id, kept.map(|b| b.center).collect())
+                })
+                .collect()
         })
         .collect();
-    let detections = detect_recording(&recording, &configs)?;
-    let kept_roundness = DetectConfig::default().min_roundness;
-    let frame_count = recording.frame_count();
-    let mut blobs: Vec<BTreeMap<CameraId, Vec<Blob>>> = vec![BTreeMap::new(); frame_count];
-    let mut views: Vec<Views> = vec![Views::new(); frame_count];
-    for d in &detections {
-        let Some(id) = rig.id_of(&d.camera) else {
-            continue;
-        };
-        let (Some(frame_blobs), Some(frame_views)) =
-            (blobs.get_mut(d.frame), views.get_mut(d.frame))
-        else {
-            continue;
-        };
-        frame_views.insert(
-            id,
-            d.blobs
-                .iter()
-                .filter(|b| b.roundness >= kept_roundness)
-                .map(|b| b.center)
-                .collect(),
-        );
-        frame_blobs.insert(id, d.blobs.clone());
-    }
     let tracker = Tracker::new(&rig, &tool, TrackConfig::default());
     let (_, tracks) = tracker.track_all(&views, recording.fps);
     let config = DoctorConfig {
@@ -201,6 +188,8 @@ fn report_text(report: &Report) -> String {
 
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeMap;
+
     use super::*;
 
     #[test]
