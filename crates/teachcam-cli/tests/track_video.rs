@@ -129,7 +129,11 @@ fn avi_cameras_track_as_well_as_their_png_frames() {
     assert_eq!(from_avi.len(), FRAMES, "one row per frame of the videos");
     for (a, b) in from_png.samples.iter().zip(&from_avi.samples) {
         assert_eq!(a.frame, b.frame);
-        assert!((a.time_s - b.time_s).abs() < 1e-9, "frame {:?} time", a.frame);
+        assert!(
+            (a.time_s - b.time_s).abs() < 1e-9,
+            "frame {:?} time",
+            a.frame
+        );
     }
     let right_png = right_poses(&from_png, &truth, 25.0);
     let right_avi = right_poses(&from_avi, &truth, 25.0);

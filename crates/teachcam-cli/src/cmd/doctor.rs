@@ -8,15 +8,20 @@ use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
 use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::pipeline::CameraSetup;
-use teachcam::track::{TrackConfig, Tracker};
+use teachcam::track::Tracker;
+use teachcam::track::gates::{
+    GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
+};
 
 use crate::Rejected;
 use crate::cmd::detect::{Frames, detect_folder};
+use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
 
 /// Say where a recording's frames are lost, what the data shows, and what to do.
 ///
 /// Detects every frame's blobs (keeping blobs of any roundness, to see what the detector's
-/// roundness cut drops), tracks them as `track` does with its defaults, and reports: lost
+/// roundness cut drops), tracks them as `track` does with its defaults (gates measured from
+/// the recording), and reports: lost
 /// frames per stage (detect, correspond, identify, register); per camera the blobs' diameters
 /// and roundness; per camera pair the epipolar distance of unambiguous blob matches (made
 /// without the tracker's tolerance); triangulation and registration residuals; and findings
@@ -27,7 +32,7 @@ use crate::cmd::detect::{Frames, detect_folder};
 /// Example: `teachcam doctor rec --rig rec/rig.json --tool rec/tool.json`
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Recording folder: one sub-folder of PNG frames per rig camera.
+    /// Recording folder: one sub-folder of PNG frames or one video file per rig camera.
     pub recording: PathBuf,
     /// Camera rig (rig.json).
     #[arg(long)]
@@ -87,8 +92,17 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
             })
             .collect())
     })?;
-    let kept_roundness = DetectConfig::default().min_roundness;
     let blobs = recording.blobs_by_camera(&rig);
+    // The gates `track` would measure: roundness from the blobs above its lowest floor, the
+    // others from a sample of the frames so gated. (`track` detects its roundness sample with
+    // that floor, which may split a merged blob that is left whole here.)
+    let roundness: Vec<f64> = sample_frames(blobs.len(), ROUNDNESS_SAMPLE_FRAMES)
+        .into_iter()
+        .flat_map(|f| blobs[f].values().flatten().map(|b| b.roundness))
+        .filter(|r| *r >= ROUNDNESS_FLOOR)
+        .collect();
+    let min_roundness = roundness_gate(&roundness, None);
+    let kept_roundness = min_roundness.value;
     let views: Vec<Views> = blobs
         .iter()
         .map(|frame| {
@@ -101,7 +115,18 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
                 .collect()
         })
         .collect();
-    let tracker = Tracker::new(&rig, &tool, TrackConfig::default());
+    let sampled: Vec<Views> = sample_frames(views.len(), GATE_SAMPLE_FRAMES)
+        .into_iter()
+        .map(|f| views[f].clone())
+        .collect();
+    let gates = measure_gates(
+        &rig,
+        &tool,
+        &sampled,
+        min_roundness,
+        &GateOverrides::default(),
+    );
+    let tracker = Tracker::new(&rig, &tool, gates.track_config());
     let (_, tracks) = tracker.track_all(&views, recording.fps);
     let config = DoctorConfig {
         min_roundness: kept_roundness,

@@ -24,10 +24,10 @@ use crate::cmd::detect::{DetectedRecording, Frames, detect_folder};
 pub use teachcam::track::uncertainty::rms;
 
 /// Frames whose images are detected twice to measure the roundness gate.
-const ROUNDNESS_SAMPLE_FRAMES: usize = 60;
+pub const ROUNDNESS_SAMPLE_FRAMES: usize = 60;
 
 /// Frames tracked in the first pass that measures the other gates.
-const GATE_SAMPLE_FRAMES: usize = 300;
+pub const GATE_SAMPLE_FRAMES: usize = 300;
 
 /// Below this fraction of frames posed, `track` points to `teachcam doctor`.
 const DOCTOR_BELOW: f64 = 0.9;
