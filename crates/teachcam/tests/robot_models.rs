@@ -163,6 +163,10 @@ fn reference_forward(robot: &Robot, joints: &Joints) -> Pose {
     }
 }
 
+#[expect(
+    clippy::unwrap_used,
+    reason = "test helper: every known name must resolve"
+)]
 fn all_robots() -> Vec<Robot> {
     teachcam::robot::kinematics::models::KNOWN_ROBOTS
         .iter()
