@@ -103,6 +103,16 @@ pub fn count(text: &str) -> Result<usize, String> {
     }
 }
 
+/// A point `x,y,z` of three finite numbers (millimetres).
+pub fn point(text: &str) -> Result<[f64; 3], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| number(v.trim()))
+        .collect::<Result<_, _>>()?;
+    <[f64; 3]>::try_from(values)
+        .map_err(|v| format!("'{text}' has {} numbers, expected x,y,z", v.len()))
+}
+
 /// A pose `x,y,z,qw,qx,qy,qz` (millimetres, unit quaternion), checked and kept as the text.
 pub fn pose(text: &str) -> Result<String, String> {
     teachcam::geometry::parse_pose(text)

@@ -133,6 +133,11 @@ fn track_writes_its_four_files_or_none() {
     assert_eq!(std::fs::read(&tool).unwrap(), before);
 }
 
+/// The KR 6 R700's work object 450 mm in front of it, 100 mm up; the brush 200 mm out of the
+/// FLANGE along its x, the TCP's z pointing back at the flange (KUKA's FLANGE has x out).
+const KUKA_WOBJ: &str = "450,0,100,1,0,0,0";
+const KUKA_TCP: &str = "200,0,0,0.707106781,0,-0.707106781,0";
+
 #[test]
 fn export_krl_writes_src_and_dat_or_neither() {
     let dir = tempfile::tempdir().unwrap();
@@ -143,10 +148,12 @@ fn export_krl_writes_src_and_dat_or_neither() {
             "export",
             "krl",
             s(&stroke),
+            "--robot",
+            "kr6-r700",
             "--wobj",
-            "350,0,100,1,0,0,0",
+            KUKA_WOBJ,
             "--tcp",
-            "0,0,200,0,1,0,0",
+            KUKA_TCP,
             "-o",
             s(output),
         ])
@@ -183,10 +190,12 @@ fn export_krl_writes_src_and_dat_or_neither() {
         "export",
         "krl",
         s(&stroke),
+        "--robot",
+        "kr6-r700",
         "--wobj",
-        "350,0,100,1,0,0,0",
+        KUKA_WOBJ,
         "--tcp",
-        "0,0,200,0,1,0,0",
+        KUKA_TCP,
         "-o",
         s(&stroke_src),
     ]);

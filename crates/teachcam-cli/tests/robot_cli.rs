@@ -12,6 +12,12 @@ use teachcam::trajectory::{Sample, ToolPose, Trajectory};
 
 const WOBJ: &str = "350,0,150,1,0,0,0";
 const TCP: &str = "0,0,150,1,0,0,0";
+/// The KR 6's work object 450 mm in front of it, 150 mm up; the brush 150 mm out of the
+/// FLANGE, along its x (KUKA's flange normal): the TCP's z is the flange's x.
+const KUKA_WOBJ: &str = "450,0,150,1,0,0,0";
+const KUKA_TCP: &str = "150,0,0,0.707106781,0,0.707106781,0";
+/// The UR5e's work object 400 mm along its base x, 100 mm up.
+const UR_WOBJ: &str = "400,0,100,1,0,0,0";
 
 /// A 4 s painter's stroke at 30 Hz (sums of sinusoids), brush pointing down, `time_scale`
 /// stretching its timing; tool frame = TCP frame.
@@ -145,21 +151,37 @@ fn every_dialect_is_written() {
     let dir = tempfile::tempdir().unwrap();
     let trajectory = dir.path().join("stroke.csv");
     write_stroke(&trajectory, 1.0);
-    for (dialect, file, first) in [
-        ("rapid", "p.mod", "MODULE p"),
-        ("krl", "p.src", "&ACCESS RVP"),
-        ("urscript", "p.script", "def p():"),
-        ("csv", "p.csv", "frame,time_s,x_mm"),
+    for (dialect, robot, wobj, tcp, file, first) in [
+        ("rapid", "irb120", WOBJ, TCP, "p.mod", "MODULE p"),
+        (
+            "krl",
+            "kr6-r700",
+            KUKA_WOBJ,
+            KUKA_TCP,
+            "p.src",
+            "&ACCESS RVP",
+        ),
+        ("urscript", "ur5e", UR_WOBJ, TCP, "p.script", "def p():"),
+        (
+            "csv",
+            "kr6-r900",
+            KUKA_WOBJ,
+            KUKA_TCP,
+            "p.csv",
+            "frame,time_s,x_mm",
+        ),
     ] {
         let path = dir.path().join(file);
         let out = teachcam(&[
             "export",
             dialect,
             trajectory.to_str().unwrap(),
+            "--robot",
+            robot,
             "--wobj",
-            WOBJ,
+            wobj,
             "--tcp",
-            TCP,
+            tcp,
             "-o",
             path.to_str().unwrap(),
         ]);

@@ -12,7 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use teachcam::geometry::{FrameIndex, Pose, pose_from_parts};
 use teachcam::robot::check::{CheckConfig, check_path};
 use teachcam::robot::frames::{PivotConfig, pivot_calibration};
-use teachcam::robot::kinematics::{Joints, RobotModel, forward, inverse};
+use teachcam::robot::kinematics::{Joints, Robot, forward, inverse};
 use teachcam::robot::program::build_program;
 use teachcam::robot::rapid::{RapidConfig, rapid_module};
 use teachcam::robot::simplify::{SimplifyConfig, simplify};
@@ -20,7 +20,7 @@ use teachcam::robot::{Cell, TcpTarget};
 
 /// 10 000 joint vectors uniformly inside the IRB 120's ranges.
 fn random_joints() -> Vec<Joints> {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let mut rng = ChaCha8Rng::seed_from_u64(120);
     (0..10_000)
         .map(|_| {
@@ -70,21 +70,21 @@ fn cell() -> Cell {
 }
 
 fn kinematics(c: &mut Criterion) {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let joints = random_joints();
-    let poses: Vec<Pose> = joints.iter().map(|j| forward(&model.geometry, j)).collect();
+    let poses: Vec<Pose> = joints.iter().map(|j| forward(&model, j)).collect();
     let mut group = c.benchmark_group("robot");
     group.bench_function("forward_10k", |b| {
         b.iter(|| {
             for j in &joints {
-                black_box(forward(&model.geometry, black_box(j)));
+                black_box(forward(&model, black_box(j)));
             }
         });
     });
     group.bench_function("inverse_all_solutions_10k", |b| {
         b.iter(|| {
             for p in &poses {
-                black_box(inverse(&model.geometry, black_box(p)));
+                black_box(inverse(&model, black_box(p)));
             }
         });
     });

@@ -8,6 +8,7 @@ pub mod camera_file;
 pub mod output;
 pub mod recording;
 pub mod rig;
+pub mod robot;
 pub mod tool;
 pub mod trajectory;
 

@@ -10,7 +10,7 @@ use teachcam::geometry::{FrameIndex, Point3, Pose, pose_from_parts};
 use teachcam::robot::check::{CheckConfig, FrameIssue, Suggestion, check_path};
 use teachcam::robot::frames::{FramesError, PivotConfig, align_frames, pivot_calibration};
 use teachcam::robot::kinematics::{
-    Joints, RobotModel, confdata, configuration_of, forward, inverse, inverse_within_limits,
+    Joints, Robot, confdata, configuration_of, forward, inverse, inverse_within_limits,
 };
 use teachcam::robot::program::build_program;
 use teachcam::robot::rapid::{RapidConfig, rapid_module};
@@ -36,18 +36,13 @@ fn assert_pose_near(a: &Pose, b: &Pose, position_mm: f64, angle_rad: f64, what: 
 
 #[test]
 fn irb120_parameters_match_abbs_product_specification() {
-    let m = RobotModel::irb120();
-    let g = &m.geometry;
+    let m = Robot::irb120();
+    let teachcam::robot::kinematics::Arm::SphericalWrist(p) = m.arm else {
+        panic!("the IRB 120 has a spherical wrist");
+    };
     // 3HAC035960-001, dimension drawing: 290 / 270 / 70 / 302 / 72 mm.
     assert_eq!(
-        [
-            g.shoulder_height,
-            g.shoulder_offset,
-            g.lower_arm,
-            g.elbow_offset,
-            g.forearm,
-            g.wrist_to_flange
-        ],
+        [p.c1, p.a1, p.c2, -p.a2, p.c3, p.c4],
         [290.0, 0.0, 270.0, 70.0, 302.0, 72.0]
     );
     let ranges: Vec<(f64, f64, f64)> = m
@@ -99,9 +94,9 @@ fn forward_kinematics_matches_the_urdf_reference() {
     let text = std::fs::read_to_string(data_dir().join("irb120_fk.json")).unwrap();
     let reference: FkReference = serde_json::from_str(&text).unwrap();
     assert!(reference.poses.len() >= 40);
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     for (i, p) in reference.poses.iter().enumerate() {
-        let pose = forward(&model.geometry, &Joints::from_degrees(p.joints_deg));
+        let pose = forward(&model, &Joints::from_degrees(p.joints_deg));
         let [w, x, y, z] = p.quaternion_wxyz;
         let expected = pose_from_parts(
             Vector3::from(p.position_mm),
@@ -113,7 +108,7 @@ fn forward_kinematics_matches_the_urdf_reference() {
 }
 
 fn joints_strategy() -> impl Strategy<Value = Joints> {
-    let m = RobotModel::irb120();
+    let m = Robot::irb120();
     let l = m.limits;
     (
         l[0].min..l[0].max,
@@ -134,20 +129,19 @@ proptest! {
     /// (|sin q5| > 1e-3, wrist centre off axis 1, elbow not stretched) where they are unique.
     #[test]
     fn inverse_kinematics_round_trips(joints in joints_strategy()) {
-        let model = RobotModel::irb120();
-        let g = &model.geometry;
+        let model = Robot::irb120();
         prop_assume!(joints.0[4].sin().abs() > 1e-3);
-        let wrist = teachcam::robot::kinematics::wrist_centre(g, &joints);
+        let wrist = teachcam::robot::kinematics::wrist_centre(&model, &joints);
         prop_assume!(wrist.x.hypot(wrist.y) > 1.0);
-        let pose = forward(g, &joints);
-        let all = inverse(g, &pose);
+        let pose = forward(&model, &joints);
+        let all = inverse(&model, &pose);
         prop_assert!(!all.is_empty());
         for s in &all {
-            let again = forward(g, &s.joints);
+            let again = forward(&model, &s.joints);
             let dp = (again.translation.vector - pose.translation.vector).norm();
             let da = again.rotation.angle_to(&pose.rotation);
             prop_assert!(dp < 1e-7 && da < 1e-9, "solution {:?}: {dp} mm {da} rad", s.joints);
-            prop_assert_eq!(configuration_of(g, &s.joints), s.configuration);
+            prop_assert_eq!(configuration_of(&model, &s.joints), s.configuration);
         }
         let within = inverse_within_limits(&model, &pose);
         let found = within.iter().any(|s| {
@@ -159,9 +153,9 @@ proptest! {
 
 #[test]
 fn a_generic_pose_has_eight_solutions_in_distinct_configurations() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let joints = Joints::from_degrees([20.0, 10.0, -20.0, 30.0, 40.0, 50.0]);
-    let all = inverse(&model.geometry, &forward(&model.geometry, &joints));
+    let all = inverse(&model, &forward(&model, &joints));
     assert_eq!(all.len(), 8);
     let mut configurations: Vec<i32> = all
         .iter()
@@ -173,21 +167,20 @@ fn a_generic_pose_has_eight_solutions_in_distinct_configurations() {
 
 #[test]
 fn confdata_follows_abbs_quadrants() {
-    let model = RobotModel::irb120();
-    let g = &model.geometry;
+    let model = Robot::irb120();
     let joints = Joints::from_degrees([100.0, 0.0, 0.0, -10.0, 30.0, 185.0]);
-    let c = confdata(&joints, &configuration_of(g, &joints));
+    let c = confdata(&joints, &configuration_of(&model, &joints));
     assert_eq!((c.cf1, c.cf4, c.cf6, c.cfx), (1, -1, 2, 0));
     let flipped = Joints::from_degrees([-30.0, 0.0, 0.0, 0.0, -30.0, -45.0]);
-    let c = confdata(&flipped, &configuration_of(g, &flipped));
+    let c = confdata(&flipped, &configuration_of(&model, &flipped));
     assert_eq!((c.cf1, c.cf4, c.cf6, c.cfx), (-1, 0, -1, 1));
 }
 
 #[test]
 fn out_of_reach_pose_has_no_solution() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let far = pose_from_parts(Vector3::new(800.0, 0.0, 300.0), UnitQuaternion::identity());
-    assert!(inverse(&model.geometry, &far).is_empty());
+    assert!(inverse(&model, &far).is_empty());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -261,7 +254,7 @@ fn targets_are_the_tip_with_the_tools_orientation() {
 
 #[test]
 fn reachable_stroke_passes_and_its_joints_reproduce_every_target() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let cell = cell();
     let trajectory = stroke(6.0, 1.0);
     let targets = targets(&trajectory);
@@ -302,7 +295,7 @@ fn reachable_stroke_passes_and_its_joints_reproduce_every_target() {
         assert_eq!(fields[0].parse::<usize>().unwrap(), target.frame.0);
         let degrees: Vec<f64> = fields[1..7].iter().map(|f| f.parse().unwrap()).collect();
         let joints = Joints::from_degrees(degrees.try_into().unwrap());
-        let left = forward(&model.geometry, &joints) * cell.flange_from_tcp;
+        let left = forward(&model, &joints) * cell.flange_from_tcp;
         let right = cell.base_from_wobj * target.wobj_from_tcp;
         assert_pose_near(
             &left,
@@ -321,7 +314,7 @@ fn reachable_stroke_passes_and_its_joints_reproduce_every_target() {
 
 #[test]
 fn too_far_stroke_is_reported_frame_by_frame_with_a_verified_move() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let mut cell = cell();
     cell.base_from_wobj.translation.vector.x = 560.0;
     let targets = targets(&stroke(4.0, 1.0));
@@ -357,7 +350,7 @@ fn too_far_stroke_is_reported_frame_by_frame_with_a_verified_move() {
 
 #[test]
 fn too_fast_stroke_fails_and_the_suggested_slowdown_passes() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let cell = cell();
     // The stroke played 8 times faster.
     let fast = targets(&stroke(4.0, 1.0 / 8.0));
@@ -387,10 +380,10 @@ fn too_fast_stroke_fails_and_the_suggested_slowdown_passes() {
 
 #[test]
 fn wrist_singularity_is_reported() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     // A TCP whose flange keeps axis 5 at zero: the flange along base x, forearm horizontal.
     let joints = Joints::from_degrees([0.0, 10.0, 0.0, 0.0, 1.0, 0.0]);
-    let base_from_flange = forward(&model.geometry, &joints);
+    let base_from_flange = forward(&model, &joints);
     let cell = Cell::default();
     let targets = vec![TcpTarget {
         frame: FrameIndex(0),
@@ -468,7 +461,7 @@ fn robtargets(module: &str) -> Vec<(Pose, [i32; 4])> {
 
 #[test]
 fn rapid_targets_equal_the_tcp_poses_and_the_checked_configuration() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let cell = cell();
     let targets = targets(&stroke(6.0, 1.0));
     let report = check_path(&model, &cell, &targets, &CheckConfig::default());
@@ -486,7 +479,8 @@ fn rapid_targets_equal_the_tcp_poses_and_the_checked_configuration() {
             0.001f64.to_radians(),
             &format!("frame {frame}"),
         );
-        let c = report.frames[frame].confdata.unwrap();
+        let f = &report.frames[frame];
+        let c = confdata(&f.joints.unwrap(), &f.configuration.unwrap());
         assert_eq!(*conf, [c.cf1, c.cf4, c.cf6, c.cfx]);
     }
     // Every move's speed reproduces its recorded duration.
@@ -503,7 +497,7 @@ fn rapid_targets_equal_the_tcp_poses_and_the_checked_configuration() {
 
 #[test]
 fn long_rapid_programs_are_split_into_routines() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let cell = cell();
     let targets = targets(&stroke(6.0, 1.0));
     let report = check_path(&model, &cell, &targets, &CheckConfig::default());
@@ -515,7 +509,6 @@ fn long_rapid_programs_are_split_into_routines() {
     assert_eq!(program.moves.len(), targets.len());
     let config = RapidConfig {
         max_moves_per_routine: 50,
-        ..RapidConfig::default()
     };
     let module = rapid_module(&program, &config);
     let routines = (targets.len() - 1).div_ceil(50);
@@ -636,7 +629,7 @@ fn programs_match_their_golden_files() {
     use teachcam::robot::krl::krl_program;
     use teachcam::robot::table::{joints_csv, poses_csv};
     use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let cell = cell();
     let targets = targets(&stroke(1.0, 1.0));
     let report = check_path(&model, &cell, &targets, &CheckConfig::default());
@@ -662,7 +655,7 @@ fn programs_match_their_golden_files() {
 fn krl_and_urscript_orientations_read_back() {
     use teachcam::robot::krl::krl_program;
     use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let cell = cell();
     let targets = targets(&stroke(2.0, 1.0));
     let report = check_path(&model, &cell, &targets, &CheckConfig::default());
@@ -689,9 +682,11 @@ fn krl_and_urscript_orientations_read_back() {
         assert_pose_near(&pose, &m.target.wobj_from_tcp, 0.001, 1e-6, "krl point");
     }
     let script = urscript_program(&program, &UrScriptConfig::default());
+    // The first target is reached by a movej to its joints, the others by movel.
     let moves: Vec<&str> = script.lines().filter(|l| l.contains("movel(")).collect();
-    assert_eq!(moves.len(), program.moves.len());
-    for (line, m) in moves.iter().zip(&program.moves) {
+    assert_eq!(moves.len(), program.moves.len() - 1);
+    assert_eq!(script.matches("movej(").count(), 1);
+    for (line, m) in moves.iter().zip(&program.moves[1..]) {
         let inner = line.split("p[").nth(1).unwrap().split(']').next().unwrap();
         let v: Vec<f64> = inner
             .split(',')
@@ -725,7 +720,7 @@ fn demo_cell() -> Cell {
 fn demo_trajectory_passes_and_its_program_reproduces_the_tcp_poses() {
     use teachcam::sim::{Scenario, build_scene};
     let scene = build_scene(Scenario::Paper, 1);
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let cell = demo_cell();
     let targets = tcp_targets(&scene.truth, &scene.tool.tool_from_tcp.rotation);
     assert_eq!(targets.len(), scene.truth.len());
@@ -745,7 +740,7 @@ fn demo_trajectory_passes_and_its_program_reproduces_the_tcp_poses() {
     // Joints reproduce every target through forward kinematics.
     for f in &report.frames {
         let joints = f.joints.unwrap();
-        let left = forward(&model.geometry, &joints) * cell.flange_from_tcp;
+        let left = forward(&model, &joints) * cell.flange_from_tcp;
         let right = cell.base_from_wobj * f.target.wobj_from_tcp;
         assert_pose_near(&left, &right, 1e-6, 1e-9, "demo joints");
     }
@@ -839,8 +834,7 @@ fn pose_text_errors_name_the_problem() {
 /// on axis 1: q1 is free).
 #[test]
 fn inverse_kinematics_at_singularities_reproduces_the_pose() {
-    let model = RobotModel::irb120();
-    let g = &model.geometry;
+    let model = Robot::irb120();
     let wrist = Joints::from_degrees([10.0, 20.0, -10.0, 30.0, 0.0, 40.0]);
     // The shoulder: J2 = 0 and J3 tipping the forearm up to put the wrist centre over axis 1
     // needs a pose; build it from a wrist centre on the z axis directly.
@@ -848,18 +842,21 @@ fn inverse_kinematics_at_singularities_reproduces_the_pose() {
         Vector3::new(0.0, 0.0, 290.0 + 400.0 + 72.0),
         UnitQuaternion::identity(),
     );
-    for (name, pose) in [("wrist", forward(g, &wrist)), ("shoulder", over_axis_1)] {
-        let all = inverse(g, &pose);
+    for (name, pose) in [
+        ("wrist", forward(&model, &wrist)),
+        ("shoulder", over_axis_1),
+    ] {
+        let all = inverse(&model, &pose);
         assert!(!all.is_empty(), "{name}");
         for s in &all {
-            assert_pose_near(&forward(g, &s.joints), &pose, 1e-7, 1e-9, name);
+            assert_pose_near(&forward(&model, &s.joints), &pose, 1e-7, 1e-9, name);
         }
     }
 }
 
 #[test]
 fn non_increasing_time_is_reported_not_divided_by() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let mut targets = targets(&stroke(1.0, 1.0));
     targets[10].time_s = targets[9].time_s;
     let report = check_path(&model, &cell(), &targets, &CheckConfig::default());
@@ -881,7 +878,7 @@ fn non_increasing_time_is_reported_not_divided_by() {
 /// A dwell (the brush held still for a second) keeps its duration in RAPID through `\T`.
 #[test]
 fn rapid_dwell_keeps_its_recorded_duration() {
-    let model = RobotModel::irb120();
+    let model = Robot::irb120();
     let cell = cell();
     let still = pose_from_parts(
         Vector3::new(0.0, 0.0, 20.0),

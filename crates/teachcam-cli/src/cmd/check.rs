@@ -8,7 +8,8 @@ use nalgebra::UnitQuaternion;
 use teachcam::geometry::Pose;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::robot::check::{CheckConfig, CheckReport, FrameIssue, check_path};
-use teachcam::robot::kinematics::RobotModel;
+use teachcam::robot::kinematics::Robot;
+use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
 use teachcam::robot::table::joints_csv;
 use teachcam::robot::{Cell, TcpTarget, tcp_targets};
 
@@ -23,7 +24,17 @@ use crate::Rejected;
 /// program would fail on the robot.
 ///
 /// Frames (CONTRACT.md, "Robot frames"): the trajectory's world is the work object; `--wobj`
-/// places it in the robot's base, `--tcp` places the brush's tip on the flange (`tool0`).
+/// places it in the robot's base, `--tcp` places the brush's tip in the maker's flange frame:
+/// ABB's tool0 and UR's tool flange have z out of the flange, KUKA's FLANGE has x out of it.
+/// Joint angles are the maker's: ABB as in a RAPID jointtarget, KUKA A1-A6 as the pendant
+/// shows them, UR as movej's (degrees in --joints-out).
+///
+/// Robots: irb120 (ABB IRB 120), kr6-r700 and kr6-r900 (KUKA KR 6 R700/R900 sixx), ur5e and
+/// ur10e (Universal Robots), or a robot file: {"name": "...", "maker": "abb"|"kuka"|"ur",
+/// "opw": {"a1_mm", "a2_mm", "b_mm" (0), "c1_mm", "c2_mm", "c3_mm", "c4_mm", "offsets_deg": [6],
+/// "sign_corrections": [6]} for a spherical wrist (ROS-Industrial opw_kinematics parameters) or
+/// "dh": {"d1_mm", "a2_mm", "a3_mm", "d4_mm", "d5_mm", "d6_mm"} for a UR-like arm, and
+/// "joints": six {"min_deg", "max_deg", "max_speed_deg_s"}}.
 ///
 /// Example: `teachcam check smooth.csv --robot irb120 --wobj "350,0,150,1,0,0,0" --tcp
 /// "0,0,150,1,0,0,0" --joints-out joints.csv`
@@ -33,7 +44,8 @@ pub struct Args {
     pub trajectory: PathBuf,
     #[command(flatten)]
     pub cell: CellArgs,
-    /// Write the chosen joint angles (degrees, as a RAPID jointtarget) of every frame here.
+    /// Write the chosen joint angles of every frame here (degrees, the maker's convention; then
+    /// the maker's configuration: ABB cf1,cf4,cf6,cfx; KUKA s,t; UR configuration 0-7).
     #[arg(long)]
     pub joints_out: Option<PathBuf>,
 }
@@ -41,13 +53,14 @@ pub struct Args {
 /// The robot and the frames that place the trajectory on it (shared by `check` and `export`).
 #[derive(Debug, clap::Args)]
 pub struct CellArgs {
-    /// Robot model.
+    /// Robot: irb120, kr6-r700, kr6-r900, ur5e, ur10e, or a robot file (.json, see above).
     #[arg(long, default_value = "irb120")]
     pub robot: String,
     /// Work object in the robot's base frame, "x,y,z,qw,qx,qy,qz" (mm; RAPID's uframe).
     #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0", value_parser = crate::flags::pose)]
     pub wobj: String,
-    /// Tool centre point in the flange frame tool0, "x,y,z,qw,qx,qy,qz" (mm; RAPID's tframe).
+    /// Tool centre point in the maker's flange frame, "x,y,z,qw,qx,qy,qz" (mm): ABB tool0 and UR
+    /// tool flange (z out of the flange; RAPID's tframe, set_tcp), KUKA FLANGE (x out; $TOOL).
     #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0", value_parser = crate::flags::pose)]
     pub tcp: String,
     /// Tool file whose `tip_rotation` turns the TCP frame (without it, the TCP has the tool's
@@ -57,7 +70,7 @@ pub struct CellArgs {
     /// Fraction of each axis's maximum speed the path may use (0 < f <= 1).
     #[arg(long, default_value_t = 1.0, value_parser = crate::flags::fraction)]
     pub speed_fraction: f64,
-    /// Largest joint acceleration allowed on every axis, deg/s^2 (ABB publishes none; without
+    /// Largest joint acceleration allowed on every axis, deg/s^2 (the makers publish none; without
     /// this flag accelerations are reported, not judged).
     #[arg(long)]
     pub max_acceleration_deg_s2: Option<f64>,
@@ -69,7 +82,7 @@ pub struct CellArgs {
 /// Everything `check` and `export` need, resolved from the arguments and files.
 pub struct Resolved {
     /// The robot.
-    pub model: RobotModel,
+    pub robot: Robot,
     /// The cell.
     pub cell: Cell,
     /// Targets of the frames with a pose.
@@ -87,8 +100,7 @@ pub fn parse_pose(text: &str, flag: &str) -> anyhow::Result<Pose> {
 
 /// Reads the trajectory and the tool, and parses the frames.
 pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
-    let model = RobotModel::by_name(&args.robot)
-        .with_context(|| format!("unknown robot '{}' (known: irb120)", args.robot))?;
+    let robot = resolve_robot(&args.robot)?;
     let cell = Cell {
         base_from_wobj: parse_pose(&args.wobj, "--wobj")?,
         flange_from_tcp: parse_pose(&args.tcp, "--tcp")?,
@@ -131,12 +143,31 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         ..CheckConfig::default()
     };
     Ok(Resolved {
-        model,
+        robot,
         cell,
         gaps: trajectory.len() - targets.len(),
         targets,
         config,
     })
+}
+
+/// A robot by name, else from a robot file; an unknown name that is no file is a usage error.
+pub fn resolve_robot(text: &str) -> anyhow::Result<Robot> {
+    if let Some(robot) = Robot::by_name(text) {
+        return Ok(robot);
+    }
+    let path = Path::new(text);
+    let looks_like_file = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        || text.contains(std::path::MAIN_SEPARATOR);
+    if looks_like_file {
+        return teachcam::io::robot::read_robot(path).rejected();
+    }
+    bail!(
+        "--robot {text}: unknown robot (known: {}; or a robot file ending in .json)",
+        KNOWN_ROBOTS.join(", ")
+    )
 }
 
 fn args_path(frames: usize) -> String {
@@ -167,12 +198,23 @@ pub fn summary(report: &CheckReport, gaps: usize, robot: &str) -> String {
         .iter()
         .map(|v| format!("{:.0}", v.to_degrees()))
         .collect();
-    let _ = writeln!(
-        out,
-        "peak joint speeds [{}] deg/s, accelerations [{}] deg/s^2 (axes 1-6)",
-        speeds.join(", "),
-        accelerations.join(", ")
-    );
+    let speeds_measured = report
+        .frames
+        .windows(2)
+        .any(|pair| pair[0].joints.is_some() && pair[1].joints.is_some());
+    if speeds_measured {
+        let _ = writeln!(
+            out,
+            "peak joint speeds [{}] deg/s, accelerations [{}] deg/s^2 (axes 1-6)",
+            speeds.join(", "),
+            accelerations.join(", ")
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "peak joint speeds: none measured (no two consecutive frames have joints)"
+        );
+    }
     let singular: Vec<String> = report
         .frames
         .iter()
@@ -221,7 +263,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let resolved = resolve(&args.trajectory, &args.cell)?;
     let report = check_path(
-        &resolved.model,
+        &resolved.robot,
         &resolved.cell,
         &resolved.targets,
         &resolved.config,
@@ -233,7 +275,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             &format!("joints of {} frames", report.frames.len()),
         );
     }
-    print!("{}", summary(&report, resolved.gaps, &resolved.model.name));
+    print!("{}", summary(&report, resolved.gaps, &resolved.robot.name));
     if report.passes() {
         println!("ok: the robot can run this trajectory");
         Ok(())
@@ -243,7 +285,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             args.trajectory.display(),
             report.failing().count(),
             report.frames.len(),
-            resolved.model.name
+            resolved.robot.name
         ))
         .rejected()
     }

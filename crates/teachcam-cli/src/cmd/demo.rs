@@ -174,6 +174,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         tolerance_mm: 0.5,
         tolerance_deg: 0.5,
         name: Some("teachcam_demo".into()),
+        tool_mass: None,
+        tool_cog: None,
         force: false,
     })?;
     timed("robot check + RAPID", start);

@@ -4,8 +4,9 @@ use std::path::PathBuf;
 
 use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::robot::check::{CheckReport, check_path};
-use teachcam::robot::krl::krl_program;
-use teachcam::robot::program::build_program;
+use teachcam::robot::kinematics::Maker;
+use teachcam::robot::krl::{krl_name_problem, krl_program};
+use teachcam::robot::program::{ToolLoad, build_program};
 use teachcam::robot::rapid::{RapidConfig, rapid_module};
 use teachcam::robot::simplify::SimplifyConfig;
 use teachcam::robot::table::poses_csv;
@@ -17,11 +18,14 @@ use crate::Rejected;
 /// The program dialects.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Dialect {
-    /// ABB RAPID module (.mod): tooldata, wobjdata, robtargets with confdata, MoveL.
+    /// ABB RAPID module (.mod): tooldata with its load, wobjdata, robtargets with confdata,
+    /// MoveJ to the first, then MoveL.
     Rapid,
-    /// KUKA KRL: FILE.src (LIN, $VEL.CP) and FILE.dat (E6POS points) beside it.
+    /// KUKA KRL: FILE.src ($TOOL, $BASE, $LOAD, a PTP to the first point with its S and T,
+    /// then LIN with $VEL.CP) and FILE.dat (E6POS points) beside it; DEF is the file's name.
     Krl,
-    /// Universal Robots URScript (.script): movel with p[...] in metres and rotation vectors.
+    /// Universal Robots URScript (.script): set_tcp, set_payload, movej to the first target's
+    /// joints (radians), then movel with p[...] in metres and rotation vectors.
     Urscript,
     /// CSV of every frame's TCP pose in the work object and the checked joints.
     Csv,
@@ -32,7 +36,14 @@ pub enum Dialect {
 /// The trajectory is checked on the robot first
 /// (as `teachcam check`); a program that would fail is not written unless `--force` is given.
 /// Targets are simplified within the path tolerance; each move's speed reproduces the recorded
-/// timing.
+/// timing. Each dialect drives its maker's robots (rapid: ABB, krl: KUKA, urscript: Universal
+/// Robots; csv: any); another maker's robot is refused unless `--force`.
+///
+/// The tool's load (RAPID tload, KRL $LOAD, URScript set_payload) is `--tool-mass` kg at
+/// `--tool-cog` in the flange frame; without them 0.2 kg (a brush and its holder) at half the
+/// TCP offset is assumed, and the program's comment says so. A KRL program's DEF name is the
+/// output file's name, which must then be a KRL name (letters, digits, underscores, starting
+/// with a letter, at most 24 characters).
 ///
 /// Example: `teachcam export rapid smooth.csv --wobj "350,0,150,1,0,0,0" --tcp
 /// "0,0,150,1,0,0,0" -o stroke.mod`
@@ -54,10 +65,17 @@ pub struct Args {
     /// Orientation tolerance for dropping targets, degrees.
     #[arg(long, default_value_t = 0.5, value_parser = crate::flags::positive)]
     pub tolerance_deg: f64,
-    /// Program name (default: the output file's name).
+    /// Program name (default: the output file's name; KRL: must be the file's name).
     #[arg(long)]
     pub name: Option<String>,
-    /// Write the program even when the check fails.
+    /// The tool's mass, kg (default: 0.2 kg assumed, said in the program).
+    #[arg(long, value_parser = crate::flags::positive)]
+    pub tool_mass: Option<f64>,
+    /// The tool's centre of gravity in the maker's flange frame, "x,y,z" mm (default: half
+    /// the TCP offset).
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::point)]
+    pub tool_cog: Option<[f64; 3]>,
+    /// Write the program even when the check fails or the robot is another maker's.
     #[arg(long)]
     pub force: bool,
 }
@@ -100,36 +118,76 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
     let mut inputs = vec![args.trajectory.as_path()];
     inputs.extend(args.cell.tool.as_deref());
     check_outputs(&outputs, &inputs)?;
+    let name = args.name.clone().unwrap_or_else(|| {
+        args.output
+            .file_stem()
+            .map_or_else(|| "teachcam".into(), |s| s.to_string_lossy().into_owned())
+    });
+    if args.dialect == Dialect::Krl {
+        let stem = args
+            .output
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if name != stem {
+            anyhow::bail!(
+                "--name {name}: a KRL program's DEF must be its file's name '{stem}' (KSS refuses another)"
+            );
+        }
+        if let Some(problem) = krl_name_problem(&name) {
+            anyhow::bail!(
+                "-o {}: {problem}, and KSS needs the DEF name to be the file's name",
+                args.output.display()
+            );
+        }
+    }
+    let robot = super::check::resolve_robot(&args.cell.robot)?;
+    if let Some(maker) = args.dialect.maker()
+        && maker != robot.maker
+        && !args.force
+    {
+        anyhow::bail!(
+            "{} programs drive {} robots, and the {} is a {} robot (--force writes it anyway)",
+            args.dialect.label(),
+            maker.label(),
+            robot.name,
+            robot.maker.label()
+        );
+    }
     let resolved = resolve(&args.trajectory, &args.cell)?;
     let report = check_path(
-        &resolved.model,
+        &resolved.robot,
         &resolved.cell,
         &resolved.targets,
         &resolved.config,
     );
     if !report.passes() {
-        print!("{}", summary(&report, resolved.gaps, &resolved.model.name));
+        print!("{}", summary(&report, resolved.gaps, &resolved.robot.name));
         if !args.force {
             return Err(anyhow::anyhow!(
                 "{}: {} of {} frames fail on the {}; no program written (--force writes it anyway)",
                 args.trajectory.display(),
                 report.failing().count(),
                 report.frames.len(),
-                resolved.model.name
+                resolved.robot.name
             ))
             .rejected();
         }
     }
-    let name = args.name.clone().unwrap_or_else(|| {
-        args.output
-            .file_stem()
-            .map_or_else(|| "teachcam".into(), |s| s.to_string_lossy().into_owned())
-    });
     let tolerance = SimplifyConfig {
         position_tolerance: args.tolerance_mm,
         orientation_tolerance: args.tolerance_deg.to_radians(),
     };
-    let program = build_program(&name, &resolved.cell, &report, &tolerance);
+    let mut program = build_program(&name, &resolved.cell, &report, &tolerance);
+    if args.tool_mass.is_some() || args.tool_cog.is_some() {
+        let assumed = ToolLoad::assumed(&resolved.cell);
+        program.load = Some(ToolLoad {
+            mass_kg: args.tool_mass.unwrap_or(assumed.mass_kg),
+            cog_in_flange: args
+                .tool_cog
+                .map_or(assumed.cog_in_flange, nalgebra::Vector3::from),
+        });
+    }
     let outputs = OutputSet::new();
     match args.dialect {
         Dialect::Rapid => outputs.add(
@@ -155,6 +213,26 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
 }
 
 impl Dialect {
+    /// The maker whose robots the dialect drives, `None` for CSV (any robot).
+    fn maker(self) -> Option<Maker> {
+        match self {
+            Self::Rapid => Some(Maker::Abb),
+            Self::Krl => Some(Maker::Kuka),
+            Self::Urscript => Some(Maker::UniversalRobots),
+            Self::Csv => None,
+        }
+    }
+
+    /// The dialect's name, for messages.
+    fn label(self) -> &'static str {
+        match self {
+            Self::Rapid => "RAPID",
+            Self::Krl => "KRL",
+            Self::Urscript => "URScript",
+            Self::Csv => "CSV",
+        }
+    }
+
     /// What the dialect's program file is, for messages.
     fn format(self) -> &'static str {
         match self {

@@ -78,7 +78,7 @@ pub struct Args {
     #[arg(long)]
     pub markers_out: Option<PathBuf>,
     /// Also write per-frame diagnostics
-    /// (`frame,status,reason,points,markers,views_per_marker,max_residual_px,combinations`) and
+    /// (`frame,status,reason,points,markers,views_per_marker,max_residual_px,combinations,reflections`) and
     /// the gates beside it (`<stem>.gates.json`).
     #[arg(long)]
     pub diagnostics: Option<PathBuf>,
@@ -436,7 +436,7 @@ fn markers_csv(tracks: &[FrameTrack]) -> String {
 /// not be moved to the common time, and such a frame's status is `degraded`.
 fn diagnostics_csv(tracks: &[FrameTrack], resampling: Option<&[Vec<ResampleIssue>]>) -> String {
     let mut out = String::from(
-        "frame,status,reason,points,markers,views_per_marker,max_residual_px,combinations",
+        "frame,status,reason,points,markers,views_per_marker,max_residual_px,combinations,reflections",
     );
     out.push_str(if resampling.is_some() {
         ",resampling\n"
@@ -469,12 +469,13 @@ fn diagnostics_csv(tracks: &[FrameTrack], resampling: Option<&[Vec<ResampleIssue
             .fold(0.0, f64::max);
         let _ = write!(
             out,
-            "{frame},{status},{},{},{},{},{max_residual:.4},{}",
+            "{frame},{status},{},{},{},{},{max_residual:.4},{},{}",
             track.reason().replace(',', ";"),
             track.points.len(),
             track.labels.len(),
             views.join(" "),
-            track.combinations
+            track.combinations,
+            track.reflections
         );
         if resampling.is_some() {
             let _ = write!(out, ",{}", issues.join(" | "));

@@ -6,13 +6,12 @@
 //! One solution per frame is chosen for the whole path at once by dynamic programming
 //! (Viterbi): the cost of a step is `(max_i |Δq_i| / (v_max,i Δt))²` (the square of the fraction
 //! of the fastest axis's speed it needs), plus a penalty for changing the arm configuration
-//! (`cfx`), so the path keeps one configuration and never flips unless it must. Speeds are
+//! ([`ArmConfiguration`]), so the path keeps one configuration and never flips unless it must. Speeds are
 //! backward differences `(q_k − q_{k−1}) / (t_k − t_{k−1})`, accelerations their differences.
 
 use crate::geometry::{FrameIndex, Vec3};
 use crate::robot::kinematics::{
-    ArmConfiguration, ConfData, Elbow, IkSolution, Joints, RobotModel, Shoulder, confdata, inverse,
-    inverse_within_limits,
+    ArmConfiguration, Elbow, IkSolution, Joints, Robot, Shoulder, inverse, inverse_within_limits,
 };
 use crate::robot::{Cell, TcpTarget};
 
@@ -31,8 +30,9 @@ pub struct CheckConfig {
     /// the load and the pose), and its planner slows the path down rather than faulting.
     pub max_acceleration: Option<[f64; 6]>,
     /// The largest distance tried when looking for a work-object move that makes every
-    /// target reachable, millimetres. Default 600 mm, about the IRB 120's reach.
-    pub max_work_object_move: f64,
+    /// target reachable, as a fraction of the arm's reach. Default 1.0: beyond a whole reach
+    /// the stroke would be on the arm's other side.
+    pub max_work_object_move_reach: f64,
 }
 
 impl Default for CheckConfig {
@@ -41,7 +41,7 @@ impl Default for CheckConfig {
             wrist_singularity: 5f64.to_radians(),
             speed_fraction: 1.0,
             max_acceleration: None,
-            max_work_object_move: 600.0,
+            max_work_object_move_reach: 1.0,
         }
     }
 }
@@ -76,12 +76,12 @@ pub enum FrameIssue {
         /// The allowed acceleration, rad/s².
         max_acceleration: f64,
     },
-    /// The arm configuration (`cfx`) changes since the previous frame.
+    /// The arm configuration changes since the previous frame.
     ConfigurationChange {
-        /// The previous frame's `cfx`.
-        from: i32,
-        /// This frame's `cfx`.
-        to: i32,
+        /// The previous frame's configuration ([`ArmConfiguration::code`], ABB's `cfx`).
+        from: u8,
+        /// This frame's.
+        to: u8,
     },
     /// The target's time does not follow the previous target's: no speed can be checked.
     TimeNotIncreasing {
@@ -138,7 +138,10 @@ impl std::fmt::Display for FrameIssue {
                 max_acceleration.to_degrees()
             ),
             Self::ConfigurationChange { from, to } => {
-                write!(f, "arm configuration changes (cfx {from} -> {to})")
+                write!(
+                    f,
+                    "arm configuration changes (configuration {from} -> {to}: 4 shoulder back + 2 elbow behind + 1 wrist flipped)"
+                )
             }
             Self::TimeNotIncreasing { time_s, previous_s } => write!(
                 f,
@@ -162,8 +165,8 @@ pub struct FrameCheck {
     pub target: TcpTarget,
     /// The joint solution chosen along the path, `None` when there is none in the limits.
     pub joints: Option<Joints>,
-    /// Its ABB configuration data.
-    pub confdata: Option<ConfData>,
+    /// Its arm configuration.
+    pub configuration: Option<ArmConfiguration>,
     /// Joint speeds since the previous target, rad/s (zero at the first).
     pub joint_speed: [f64; 6],
     /// Joint accelerations, rad/s² (zero at the first two).
@@ -214,6 +217,8 @@ impl std::fmt::Display for Suggestion {
 /// The check of a whole path.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CheckReport {
+    /// The robot checked on.
+    pub robot: Robot,
     /// One per target, in order.
     pub frames: Vec<FrameCheck>,
     /// The largest `|speed| / allowed speed` over all axes and frames.
@@ -274,16 +279,16 @@ const CONFIGURATION_CHANGE_COST: f64 = 1e3;
 /// Checks a path of targets on a robot in a cell.
 #[must_use]
 pub fn check_path(
-    model: &RobotModel,
+    robot: &Robot,
     cell: &Cell,
     targets: &[TcpTarget],
     config: &CheckConfig,
 ) -> CheckReport {
     let candidates: Vec<Vec<IkSolution>> = targets
         .iter()
-        .map(|t| inverse_within_limits(model, &cell.base_from_flange(&t.wobj_from_tcp)))
+        .map(|t| inverse_within_limits(robot, &cell.base_from_flange(&t.wobj_from_tcp)))
         .collect();
-    let chosen = choose_along_path(model, targets, &candidates, config);
+    let chosen = choose_along_path(robot, targets, &candidates, config);
     let mut frames = Vec::with_capacity(targets.len());
     let mut previous: Option<(usize, IkSolution)> = None;
     let mut previous_speed: Option<(usize, [f64; 6])> = None;
@@ -294,11 +299,11 @@ pub fn check_path(
         let mut joint_speed = [0.0; 6];
         let mut joint_acceleration = [0.0; 6];
         let Some(solution) = chosen[k] else {
-            issues.push(reach_issue(model, cell, target));
+            issues.push(reach_issue(robot, cell, target));
             frames.push(FrameCheck {
                 target: *target,
                 joints: None,
-                confdata: None,
+                configuration: None,
                 joint_speed,
                 joint_acceleration,
                 issues,
@@ -307,7 +312,6 @@ pub fn check_path(
             previous_speed = None;
             continue;
         };
-        let conf = confdata(&solution.joints, &solution.configuration);
         if let Some((p, before)) = previous {
             let dt = target.time_s - targets[p].time_s;
             if dt.is_nan() || dt <= 0.0 {
@@ -319,7 +323,7 @@ pub fn check_path(
             let dt = dt.max(1e-9);
             for (axis, speed) in joint_speed.iter_mut().enumerate() {
                 *speed = (solution.joints.0[axis] - before.joints.0[axis]) / dt;
-                let max_speed = model.limits[axis].max_speed * config.speed_fraction;
+                let max_speed = robot.limits[axis].max_speed * config.speed_fraction;
                 let ratio = speed.abs() / max_speed;
                 peak_speed_ratio = peak_speed_ratio.max(ratio);
                 if ratio > 1.0 {
@@ -330,11 +334,10 @@ pub fn check_path(
                     });
                 }
             }
-            let before_conf = confdata(&before.joints, &before.configuration);
-            if before_conf.cfx != conf.cfx {
+            if before.configuration != solution.configuration {
                 issues.push(FrameIssue::ConfigurationChange {
-                    from: before_conf.cfx,
-                    to: conf.cfx,
+                    from: before.configuration.code(),
+                    to: solution.configuration.code(),
                 });
             }
             if let Some((pp, speed_before)) = previous_speed {
@@ -366,7 +369,7 @@ pub fn check_path(
         frames.push(FrameCheck {
             target: *target,
             joints: Some(solution.joints),
-            confdata: Some(conf),
+            configuration: Some(solution.configuration),
             joint_speed,
             joint_acceleration,
             issues,
@@ -383,6 +386,7 @@ pub fn check_path(
         }
     }
     let mut report = CheckReport {
+        robot: robot.clone(),
         frames,
         peak_speed_ratio,
         peak_acceleration_ratio: config.max_acceleration.map(|_| peak_acceleration_ratio),
@@ -390,22 +394,19 @@ pub fn check_path(
         peak_joint_acceleration,
         suggestions: Vec::new(),
     };
-    report.suggestions = suggestions(model, cell, targets, &report, config);
+    report.suggestions = suggestions(robot, cell, targets, &report, config);
     report
 }
 
 /// Why a target has no solution: out of reach, or the limit broken by the least bad solution.
-fn reach_issue(model: &RobotModel, cell: &Cell, target: &TcpTarget) -> FrameIssue {
-    let all = inverse(
-        &model.geometry,
-        &cell.base_from_flange(&target.wobj_from_tcp),
-    );
+fn reach_issue(robot: &Robot, cell: &Cell, target: &TcpTarget) -> FrameIssue {
+    let all = inverse(robot, &cell.base_from_flange(&target.wobj_from_tcp));
     let mut worst: Option<(f64, usize, f64)> = None;
     for solution in &all {
         // The solution's largest excess over a limit, and where.
         let mut excess = (0.0, 0, 0.0);
         for axis in 0..6 {
-            let limit = &model.limits[axis];
+            let limit = &robot.limits[axis];
             let angle = solution.joints.0[axis];
             let over = (limit.min - angle).max(angle - limit.max);
             if over > excess.0 {
@@ -425,14 +426,14 @@ fn reach_issue(model: &RobotModel, cell: &Cell, target: &TcpTarget) -> FrameIssu
 /// A preference among solutions at the first frame of a run: ABB's usual configuration
 /// (wrist in front of axis 1 and of the lower arm, axis 5 positive), then angles near the
 /// middle of their ranges. Small beside any step cost.
-fn start_cost(model: &RobotModel, solution: &IkSolution) -> f64 {
+fn start_cost(robot: &Robot, solution: &IkSolution) -> f64 {
     let c = &solution.configuration;
     let configuration = f64::from(u8::from(c.shoulder == Shoulder::Back))
         + f64::from(u8::from(c.elbow == Elbow::Behind))
         + f64::from(u8::from(c.wrist_flipped));
     let centred: f64 = (0..6)
         .map(|i| {
-            let l = &model.limits[i];
+            let l = &robot.limits[i];
             let mid = 0.5 * (l.min + l.max);
             ((solution.joints.0[i] - mid) / (l.max - l.min)).powi(2)
         })
@@ -441,7 +442,7 @@ fn start_cost(model: &RobotModel, solution: &IkSolution) -> f64 {
 }
 
 fn step_cost(
-    model: &RobotModel,
+    robot: &Robot,
     from: &IkSolution,
     to: &IkSolution,
     dt: f64,
@@ -450,7 +451,7 @@ fn step_cost(
     let mut ratio: f64 = 0.0;
     for axis in 0..6 {
         // A non-increasing time (reported by the check) costs as a step in a nanosecond.
-        let max_step = model.limits[axis].max_speed * config.speed_fraction * dt.max(1e-9);
+        let max_step = robot.limits[axis].max_speed * config.speed_fraction * dt.max(1e-9);
         ratio = ratio.max((to.joints.0[axis] - from.joints.0[axis]).abs() / max_step);
     }
     let flip = if same_configuration(&from.configuration, &to.configuration) {
@@ -468,7 +469,7 @@ fn same_configuration(a: &ArmConfiguration, b: &ArmConfiguration) -> bool {
 /// One solution per target (or `None`), minimising the summed step costs over each run of
 /// consecutive targets that have solutions.
 fn choose_along_path(
-    model: &RobotModel,
+    robot: &Robot,
     targets: &[TcpTarget],
     candidates: &[Vec<IkSolution>],
     config: &CheckConfig,
@@ -487,7 +488,7 @@ fn choose_along_path(
         // Viterbi over start..end.
         let mut cost: Vec<f64> = candidates[start]
             .iter()
-            .map(|s| start_cost(model, s))
+            .map(|s| start_cost(robot, s))
             .collect();
         let mut back: Vec<Vec<usize>> = Vec::with_capacity(end - start);
         back.push(Vec::new());
@@ -495,10 +496,19 @@ fn choose_along_path(
             let dt = targets[k].time_s - targets[k - 1].time_s;
             let mut next_cost = Vec::with_capacity(candidates[k].len());
             let mut next_back = Vec::with_capacity(candidates[k].len());
+            // Predecessors cheapest first: a step never costs less than zero, so the search
+            // for a target's best predecessor stops at the first whose cost alone is no
+            // better (exact; it matters for a UR, whose ±360° copies make 512 candidates).
+            let mut order: Vec<usize> = (0..cost.len()).collect();
+            order.sort_by(|&a, &b| cost[a].total_cmp(&cost[b]));
             for to in &candidates[k] {
                 let mut best = (f64::INFINITY, 0);
-                for (i, from) in candidates[k - 1].iter().enumerate() {
-                    let c = cost[i] + step_cost(model, from, to, dt, config);
+                for &i in &order {
+                    if cost[i] >= best.0 {
+                        break;
+                    }
+                    let from = &candidates[k - 1][i];
+                    let c = cost[i] + step_cost(robot, from, to, dt, config);
                     if c < best.0 {
                         best = (c, i);
                     }
@@ -526,7 +536,7 @@ fn choose_along_path(
 }
 
 fn suggestions(
-    model: &RobotModel,
+    robot: &Robot,
     cell: &Cell,
     targets: &[TcpTarget],
     report: &CheckReport,
@@ -534,7 +544,7 @@ fn suggestions(
 ) -> Vec<Suggestion> {
     let mut out = Vec::new();
     if report.unreachable_count() > 0 {
-        if let Some(by_in_base) = work_object_move(model, cell, targets, config) {
+        if let Some(by_in_base) = work_object_move(robot, cell, targets, config) {
             out.push(Suggestion::MoveWorkObject { by_in_base });
         }
     } else {
@@ -550,11 +560,12 @@ fn suggestions(
     out
 }
 
-/// A translation of the work object, toward the arm's comfortable zone, after which every
-/// target has a solution within the limits; tried in 10 mm steps along the direction from the
-/// targets' centroid to a point 60 % of the reach in front of axis 2 at its height.
+/// A translation of the work object, toward the arm's comfortable zone
+/// ([`Robot::comfortable_point`]), after which every target has a solution within the limits;
+/// tried in steps of 1 % of the reach along the direction from the targets' centroid to that
+/// point.
 fn work_object_move(
-    model: &RobotModel,
+    robot: &Robot,
     cell: &Cell,
     targets: &[TcpTarget],
     config: &CheckConfig,
@@ -567,26 +578,21 @@ fn work_object_move(
         .map(|t| cell.base_from_flange(&t.wobj_from_tcp).translation.vector)
         .sum::<Vec3>()
         / targets.len() as f64;
-    let g = &model.geometry;
-    let comfortable = Vec3::new(
-        g.shoulder_offset + 0.6 * model.max_wrist_reach(),
-        0.0,
-        g.shoulder_height,
-    );
-    let towards = comfortable - centroid;
+    let towards = robot.comfortable_point().coords - centroid;
     let distance = towards.norm();
     if distance < 1e-9 {
         return None;
     }
     let direction = towards / distance;
-    let step = 10.0;
+    let reach = robot.max_wrist_reach();
+    let step = 0.01 * reach;
     let mut moved = step;
-    while moved <= config.max_work_object_move {
+    while moved <= config.max_work_object_move_reach * reach {
         let by = direction * moved;
         let mut moved_cell = *cell;
         moved_cell.base_from_wobj.translation.vector += by;
         let all_reachable = targets.iter().all(|t| {
-            !inverse_within_limits(model, &moved_cell.base_from_flange(&t.wobj_from_tcp)).is_empty()
+            !inverse_within_limits(robot, &moved_cell.base_from_flange(&t.wobj_from_tcp)).is_empty()
         });
         if all_reachable {
             return Some(by);

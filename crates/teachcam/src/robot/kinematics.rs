@@ -1,35 +1,39 @@
-//! Kinematics of a six-axis arm with a spherical wrist, in ABB's joint convention, with the
-//! ABB IRB 120-3/0.58 as the model the paper's cell uses (§V-B).
+//! Kinematics of the six-axis arms a program can be written for: one [`Robot`] description
+//! (maker, geometry, joint ranges and speeds) serves the check, the programs and the inverse
+//! kinematics, in the maker's own joint convention (what the pendant shows).
 //!
-//! Model (ABB convention, base frame: x forward, z up; all joints zero = upper arm horizontal,
-//! lower arm vertical, `tool0`'s z along base x):
-//! ```text
-//! base_from_flange(q) = [wrist_centre(q); Rz(q1) Ry(q2+q3) Rx(q4) Ry(q5) Rx(q6) Ry(π/2)]
-//! wrist_centre(q) = Rz(q1) ((a1, 0, c1) + Ry(q2) (0, 0, c2) + Ry(q2+q3) (c3, 0, a2))
-//! tool0 = wrist_centre + c4 · (flange z)
-//! ```
-//! Axes 2, 3 and 5 turn about the arm's y axis (positive: the arm tips forward and down),
-//! axes 4 and 6 about the forearm and the flange normal, axis 1 about the base z. This is the
-//! ortho-parallel-wrist ("OPW") family of Brandstötter, Angerer and Hofbaur (2014); the
-//! inverse below is its closed form written in these coordinates: two shoulder solutions
-//! (axis 1 facing the wrist centre or turned away), two elbow solutions, two wrist solutions
-//! (axis 5 positive or negative), and every ±360° copy of an axis whose range allows it.
+//! Two families ([`Arm`]):
+//! - **Spherical wrist** (ABB, KUKA): the ortho-parallel-wrist ("OPW") parameters of
+//!   Brandstötter, Angerer and Hofbaur (2014) as ROS-Industrial's `opw_kinematics` writes them:
+//!   lengths `a1, a2, b, c1, c2, c3, c4`; the model's angle of joint i is
+//!   `θ_i = s_i · q_i − o_i` with `q_i` the maker's angle, `s_i = ±1` its sign correction and
+//!   `o_i` its offset. At `θ = 0` the arm stands stretched upward and `tool0` (z out of the
+//!   flange) is parallel to the base. The closed form is [`opw`].
+//! - **UR-like** (Universal Robots): UR's published Denavit–Hartenberg model ([`ur`]), joint
+//!   angles those of `movej`.
 //!
-//! The IRB 120's geometry and limits come from ABB's product specification, IRB 120
-//! (3HAC035960-001): base to axis 2 290 mm, lower arm 270 mm, forearm offset 70 mm, axis 3 to
-//! wrist centre 302 mm, wrist centre to flange 72 mm, so `tool0` at all joints zero is
-//! `(374, 0, 630)` mm with orientation `[0.70711, 0, 0.70711, 0]`. Working ranges: axis 1
-//! ±165°, axis 2 ±110°, axis 3 −110°..+70°, axis 4 ±160°, axis 5 ±120°, axis 6 ±400°;
-//! maximum speeds 250, 250, 250, 320, 320, 420 °/s.
+//! The flange frame is the one the maker's programs mean ([`Maker::tool0_from_flange`]): ABB's
+//! `tool0` and UR's tool flange have z out of the flange; KUKA's FLANGE frame has x out of the
+//! flange (`FLANGE = tool0 · Ry(−90°)`; at KUKA's home `{A1 0, A2 −90, A3 90, A4 0, A5 0, A6 0}`
+//! it is parallel to `$ROBROOT`).
+//!
+//! Every pose has up to eight solutions (shoulder × elbow × wrist, [`ArmConfiguration`]) and,
+//! for axes whose range is wider than a turn, their ±360° copies ([`inverse_within_limits`]).
+
+pub mod models;
+pub mod opw;
+pub mod ur;
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-use crate::geometry::{Point3, Pose, Vec3, pose_from_parts};
+use crate::geometry::{Point3, Pose};
+pub use opw::ArmGeometry;
+pub use ur::UrParameters;
 
-/// Six joint angles in radians, axis 1 first, in the controller's convention (for ABB, the
-/// angles of a RAPID `jointtarget`, which prints them in degrees).
+/// Six joint angles in radians, axis 1 first, in the maker's convention (ABB: a RAPID
+/// `jointtarget`; KUKA: A1–A6 as the pendant shows them; UR: `movej`'s angles).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Joints(pub [f64; 6]);
 
@@ -47,23 +51,6 @@ impl Joints {
     }
 }
 
-/// The link lengths of an arm with a spherical wrist, millimetres (OPW names in brackets).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ArmGeometry {
-    /// Height of axis 2 above the base plate (`c1`).
-    pub shoulder_height: f64,
-    /// Forward offset of axis 2 from axis 1 (`a1`).
-    pub shoulder_offset: f64,
-    /// Axis 2 to axis 3 (`c2`).
-    pub lower_arm: f64,
-    /// Offset of the forearm above axis 3, perpendicular to it (`a2`, taken positive up).
-    pub elbow_offset: f64,
-    /// Axis 3 to the wrist centre along the forearm (`c3`).
-    pub forearm: f64,
-    /// Wrist centre to the flange (`c4`).
-    pub wrist_to_flange: f64,
-}
-
 /// The range and speed of one axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AxisLimit {
@@ -76,7 +63,9 @@ pub struct AxisLimit {
 }
 
 impl AxisLimit {
-    fn from_degrees(min_deg: f64, max_deg: f64, max_speed_deg_s: f64) -> Self {
+    /// A limit from degrees and degrees per second.
+    #[must_use]
+    pub fn from_degrees(min_deg: f64, max_deg: f64, max_speed_deg_s: f64) -> Self {
         Self {
             min: min_deg.to_radians(),
             max: max_deg.to_radians(),
@@ -91,69 +80,147 @@ impl AxisLimit {
     }
 }
 
-/// A robot arm: its name, geometry and axis limits.
+/// Who made the arm: decides the flange frame, the joint conventions' meaning and which
+/// program dialect may drive it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Maker {
+    /// ABB (RAPID).
+    Abb,
+    /// KUKA (KRL).
+    Kuka,
+    /// Universal Robots (URScript).
+    UniversalRobots,
+}
+
+impl Maker {
+    /// The maker's name, for messages.
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Abb => "ABB",
+            Self::Kuka => "KUKA",
+            Self::UniversalRobots => "Universal Robots",
+        }
+    }
+
+    /// The maker's flange frame in `tool0` (z out of the flange): identity for ABB's `tool0`
+    /// and UR's tool flange, `Ry(−90°)` for KUKA's FLANGE (x out of the flange).
+    #[must_use]
+    pub fn tool0_from_flange(self) -> UnitQuaternion<f64> {
+        match self {
+            Self::Kuka => UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -FRAC_PI_2),
+            Self::Abb | Self::UniversalRobots => UnitQuaternion::identity(),
+        }
+    }
+}
+
+/// OPW parameters of a spherical-wrist arm (ROS-Industrial `opw_kinematics` convention),
+/// lengths in millimetres, offsets in radians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OpwParameters {
+    /// Forward offset of axis 2 from axis 1.
+    pub a1: f64,
+    /// Offset between axes 3 and 4, negative when the forearm sits above axis 3.
+    pub a2: f64,
+    /// Lateral offset (must be zero: no supported arm has one).
+    pub b: f64,
+    /// Height of axis 2 above the base.
+    pub c1: f64,
+    /// Axis 2 to axis 3.
+    pub c2: f64,
+    /// Axis 3 to the wrist centre.
+    pub c3: f64,
+    /// Wrist centre to the flange.
+    pub c4: f64,
+    /// `o_i` of `θ_i = s_i q_i − o_i`, radians.
+    pub offsets: [f64; 6],
+    /// `s_i`, each +1 or −1.
+    pub sign_corrections: [f64; 6],
+}
+
+impl OpwParameters {
+    /// The lengths in [`opw`]'s terms.
+    #[must_use]
+    pub fn geometry(&self) -> ArmGeometry {
+        ArmGeometry {
+            shoulder_height: self.c1,
+            shoulder_offset: self.a1,
+            lower_arm: self.c2,
+            elbow_offset: -self.a2,
+            forearm: self.c3,
+            wrist_to_flange: self.c4,
+        }
+    }
+
+    /// [`opw`]'s angles (its axis 3 is OPW's θ3 − 90°) from the maker's.
+    fn model_from_maker(&self, q: &Joints) -> [f64; 6] {
+        let mut theta: [f64; 6] =
+            std::array::from_fn(|i| self.sign_corrections[i] * q.0[i] - self.offsets[i]);
+        theta[2] -= FRAC_PI_2;
+        theta
+    }
+
+    /// The maker's angles from [`opw`]'s.
+    fn maker_from_model(&self, model: &[f64; 6]) -> Joints {
+        let mut theta = *model;
+        theta[2] += FRAC_PI_2;
+        Joints(std::array::from_fn(|i| {
+            self.sign_corrections[i] * (theta[i] + self.offsets[i])
+        }))
+    }
+}
+
+/// The kinematic family and its parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Arm {
+    /// Spherical wrist: OPW parameters.
+    SphericalWrist(OpwParameters),
+    /// Universal Robots' DH model.
+    Ur(UrParameters),
+}
+
+/// A robot arm: its name, maker, kinematics and axis limits.
 #[derive(Debug, Clone, PartialEq)]
-pub struct RobotModel {
-    /// Name as users write it (`irb120`).
+pub struct Robot {
+    /// Name as users write it (`irb120`, `kr6-r700`, `ur5e`).
     pub name: String,
-    /// Link lengths.
-    pub geometry: ArmGeometry,
-    /// Axis 1 to 6.
+    /// Its maker.
+    pub maker: Maker,
+    /// Its kinematics.
+    pub arm: Arm,
+    /// Axis 1 to 6, in the maker's convention.
     pub limits: [AxisLimit; 6],
 }
 
-impl RobotModel {
-    /// The ABB IRB 120-3/0.58, from ABB's product specification (3HAC035960-001): link
-    /// lengths from its dimension drawing, working ranges and maximum axis speeds from its
-    /// "Robot motion" table. Axis 3's range is −110°..+70° there (some secondary sources say
-    /// −90°); edit `limits` for a controller configured otherwise.
-    #[must_use]
-    pub fn irb120() -> Self {
-        Self {
-            name: "irb120".into(),
-            geometry: ArmGeometry {
-                shoulder_height: 290.0,
-                shoulder_offset: 0.0,
-                lower_arm: 270.0,
-                elbow_offset: 70.0,
-                forearm: 302.0,
-                wrist_to_flange: 72.0,
-            },
-            limits: [
-                AxisLimit::from_degrees(-165.0, 165.0, 250.0),
-                AxisLimit::from_degrees(-110.0, 110.0, 250.0),
-                AxisLimit::from_degrees(-110.0, 70.0, 250.0),
-                AxisLimit::from_degrees(-160.0, 160.0, 320.0),
-                AxisLimit::from_degrees(-120.0, 120.0, 320.0),
-                AxisLimit::from_degrees(-400.0, 400.0, 420.0),
-            ],
-        }
-    }
-
-    /// A model by the name users type, `None` for an unknown robot.
-    #[must_use]
-    pub fn by_name(name: &str) -> Option<Self> {
-        match name.to_ascii_lowercase().as_str() {
-            "irb120" | "irb-120" | "irb_120" | "irb120-3/0.58" => Some(Self::irb120()),
-            _ => None,
-        }
-    }
-
-    /// The axis whose limit `joints` break first, with its angle, `None` when all are inside.
+impl Robot {
+    /// The axis whose limit `joints` break first, `None` when all are inside.
     #[must_use]
     pub fn axis_outside_limits(&self, joints: &Joints) -> Option<usize> {
         (0..6).find(|&i| !self.limits[i].contains(joints.0[i]))
     }
 
-    /// The largest distance from axis 2 to the wrist centre (arm stretched), millimetres.
+    /// The largest distance from the shoulder axis to the wrist (arm stretched), millimetres.
     #[must_use]
     pub fn max_wrist_reach(&self) -> f64 {
-        let g = &self.geometry;
-        g.lower_arm + g.forearm.hypot(g.elbow_offset)
+        match &self.arm {
+            Arm::SphericalWrist(p) => p.geometry().max_wrist_reach(),
+            Arm::Ur(p) => p.max_reach(),
+        }
+    }
+
+    /// A point well inside the arm's workspace, in its base frame: 60 % of the reach in front
+    /// of the shoulder axis, at its height.
+    #[must_use]
+    pub fn comfortable_point(&self) -> Point3 {
+        let reach = 0.6 * self.max_wrist_reach();
+        match &self.arm {
+            Arm::SphericalWrist(p) => Point3::new(p.a1 + reach, 0.0, p.c1),
+            Arm::Ur(p) => Point3::new(reach, 0.0, p.d1),
+        }
     }
 }
 
-/// Which side of axis 1 the wrist centre is on, ABB's `cfx` first criterion.
+/// Which side of axis 1 the wrist is on (ABB's `cfx` and KUKA's status bit 0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Shoulder {
     /// Wrist centre in front of axis 1 (the usual pose).
@@ -162,24 +229,36 @@ pub enum Shoulder {
     Back,
 }
 
-/// Which side of the lower arm the wrist centre is on, ABB's `cfx` second criterion.
+/// Which side of the lower arm the wrist is on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Elbow {
-    /// Wrist centre in front of the lower arm (elbow up for a forward reach).
+    /// Wrist centre in front of the lower arm (elbow up for a forward reach); for UR,
+    /// `sin θ3 ≥ 0`.
     Front,
-    /// Wrist centre behind the lower arm.
+    /// The other elbow.
     Behind,
 }
 
 /// The arm configuration of one inverse-kinematics solution.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct ArmConfiguration {
-    /// Wrist centre relative to axis 1.
+    /// Wrist relative to axis 1.
     pub shoulder: Shoulder,
-    /// Wrist centre relative to the lower arm.
+    /// Wrist relative to the lower arm.
     pub elbow: Elbow,
     /// Axis 5 negative (the wrist flipped).
     pub wrist_flipped: bool,
+}
+
+impl ArmConfiguration {
+    /// The branch as a number 0..7: 4·(shoulder back) + 2·(elbow behind) + (wrist flipped);
+    /// for ABB it is `cfx`.
+    #[must_use]
+    pub fn code(&self) -> u8 {
+        4 * u8::from(self.shoulder == Shoulder::Back)
+            + 2 * u8::from(self.elbow == Elbow::Behind)
+            + u8::from(self.wrist_flipped)
+    }
 }
 
 /// ABB's robot configuration data (`confdata`) for a joint solution: the quadrants of axes 1,
@@ -196,143 +275,91 @@ pub struct ConfData {
     pub cfx: i32,
 }
 
-/// Tool flange (`tool0`) pose in the base frame for the given joints.
-#[must_use]
-pub fn forward(geometry: &ArmGeometry, joints: &Joints) -> Pose {
-    let q = &joints.0;
-    let rotation = arm_rotation(q[0], q[1] + q[2])
-        * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), q[3])
-        * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), q[4])
-        * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), q[5])
-        * flange_from_wrist_axes();
-    let wrist = wrist_centre(geometry, joints);
-    let flange_z = rotation * Vector3::z();
-    pose_from_parts(wrist.coords + flange_z * geometry.wrist_to_flange, rotation)
-}
-
-/// The wrist centre (where axes 4, 5 and 6 meet) in the base frame.
-#[must_use]
-pub fn wrist_centre(geometry: &ArmGeometry, joints: &Joints) -> Point3 {
-    let q = &joints.0;
-    let g = geometry;
-    let (s2, c2) = q[1].sin_cos();
-    let (s23, c23) = (q[1] + q[2]).sin_cos();
-    // In the plane of the arm: forward distance from axis 1 and height.
-    let reach = g.shoulder_offset + g.lower_arm * s2 + g.forearm * c23 + g.elbow_offset * s23;
-    let height = g.shoulder_height + g.lower_arm * c2 - g.forearm * s23 + g.elbow_offset * c23;
-    let (s1, c1) = q[0].sin_cos();
-    Point3::new(reach * c1, reach * s1, height)
-}
-
-/// `Rz(q1) Ry(q23)`: the forearm's frame before the wrist.
-fn arm_rotation(q1: f64, q23: f64) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), q1)
-        * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), q23)
-}
-
-/// The constant turn from the wrist's axes (x along the forearm) to `tool0` (z along it).
-fn flange_from_wrist_axes() -> UnitQuaternion<f64> {
-    UnitQuaternion::from_axis_angle(&Vector3::y_axis(), FRAC_PI_2)
+/// KUKA's Status and Turn of a joint solution (KUKA System Software 8, "Operating and
+/// Programming Instructions for System Integrators", §"Status" and §"Turn"):
+/// - Status bit 0: the wrist root point (where A4, A5, A6 meet) has a negative x in the A1
+///   coordinate system (`$ROBROOT` turned with A1): the overhead area;
+/// - bit 1: `A3 ≥ φ`, φ the A3 angle at which A2, A3 and the wrist root point are in line
+///   (0° without an A3–A4 offset; 5.5° for the KR 6 sixx's 35 mm over 365 mm);
+/// - bit 2: `A5 ≤ 0`;
+/// - Turn bit i (i = 0..5): axis i+1's angle is negative.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StatusTurn {
+    /// `S`, 0..7.
+    pub status: u8,
+    /// `T`, 0..63.
+    pub turn: u8,
 }
 
 /// One solution of the inverse kinematics.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IkSolution {
-    /// Joint angles, each in (−π, π].
+    /// Joint angles in the maker's convention.
     pub joints: Joints,
     /// Its arm configuration.
     pub configuration: ArmConfiguration,
 }
 
-/// `|sin q5|` below which the wrist counts as exactly singular in the closed form: axes 4 and
-/// 6 are then aligned and only `q4 + q6` is determined; axis 4 is set to zero.
-const EXACT_WRIST_SINGULARITY: f64 = 1e-10;
-
-/// Every inverse-kinematics solution for a flange pose, up to eight, angles in (−π, π],
-/// ignoring joint limits; empty when the wrist centre is out of reach.
-#[must_use]
-pub fn inverse(geometry: &ArmGeometry, base_from_flange: &Pose) -> Vec<IkSolution> {
-    let g = geometry;
-    let rotation = base_from_flange.rotation;
-    let flange_z = rotation * Vector3::z();
-    let wrist: Vec3 = base_from_flange.translation.vector - flange_z * g.wrist_to_flange;
-    let upper = g.forearm.hypot(g.elbow_offset);
-    let upper_angle = g.elbow_offset.atan2(g.forearm);
-    let mut solutions = Vec::with_capacity(8);
-    let facing = wrist.y.atan2(wrist.x);
-    for shoulder in [Shoulder::Front, Shoulder::Back] {
-        let q1 = match shoulder {
-            Shoulder::Front => facing,
-            Shoulder::Back => wrap(facing + PI),
-        };
-        let (s1, c1) = q1.sin_cos();
-        let reach = c1 * wrist.x + s1 * wrist.y - g.shoulder_offset;
-        let height = wrist.z - g.shoulder_height;
-        let distance_sq = reach * reach + height * height;
-        // sin(φ - q3) from the triangle axis 2, axis 3, wrist centre.
-        let k = (distance_sq - g.lower_arm.powi(2) - upper * upper) / (2.0 * g.lower_arm * upper);
-        if !k.is_finite() || k.abs() > 1.0 {
-            continue;
-        }
-        let k = k.clamp(-1.0, 1.0);
-        for elbow_branch in [k.asin(), PI - k.asin()] {
-            let q3 = wrap(upper_angle - elbow_branch);
-            let beta = q3 - upper_angle;
-            let a = g.lower_arm - upper * beta.sin();
-            let b = upper * beta.cos();
-            let q2 = (a * reach - b * height).atan2(a * height + b * reach);
-            // Wrist centre in front of the lower arm: the cross product of the lower arm's
-            // direction (sin q2, cos q2) with the elbow-to-wrist vector points along -y.
-            let (s2, c2) = q2.sin_cos();
-            let to_wrist_reach = reach - g.lower_arm * s2;
-            let to_wrist_height = height - g.lower_arm * c2;
-            let elbow = if s2 * to_wrist_height - c2 * to_wrist_reach <= 0.0 {
-                Elbow::Front
-            } else {
-                Elbow::Behind
-            };
-            let wrist_rotation =
-                arm_rotation(q1, q2 + q3).inverse() * rotation * flange_from_wrist_axes().inverse();
-            let m = wrist_rotation.to_rotation_matrix().into_inner();
-            // Rx(q4) Ry(q5) Rx(q6): m00 = c5, m01 = s5 s6, m02 = s5 c6, m10 = s4 s5,
-            // m20 = -c4 s5.
-            let s5_abs = m[(0, 1)].hypot(m[(0, 2)]);
-            for wrist_flipped in [false, true] {
-                let sign = if wrist_flipped { -1.0 } else { 1.0 };
-                let q5 = (sign * s5_abs).atan2(m[(0, 0)]);
-                let (q4, q6) = if s5_abs < EXACT_WRIST_SINGULARITY {
-                    // Axes 4 and 6 aligned: Rx(q4 + q6) (or Rx(q4 - q6) with q5 = π).
-                    let sum = m[(2, 1)].atan2(m[(1, 1)]);
-                    (0.0, if m[(0, 0)] > 0.0 { sum } else { -sum })
-                } else {
-                    (
-                        (sign * m[(1, 0)]).atan2(-sign * m[(2, 0)]),
-                        (sign * m[(0, 1)]).atan2(sign * m[(0, 2)]),
-                    )
-                };
-                solutions.push(IkSolution {
-                    joints: Joints([q1, wrap(q2), q3, wrap(q4), wrap(q5), wrap(q6)]),
-                    configuration: ArmConfiguration {
-                        shoulder,
-                        elbow,
-                        wrist_flipped,
-                    },
-                });
-            }
-        }
-    }
-    solutions
+fn rotation_pose(rotation: UnitQuaternion<f64>) -> Pose {
+    Isometry3::from_parts(Translation3::identity(), rotation)
 }
 
-/// Every joint solution inside the model's limits, with the ±360° copies of each axis whose
-/// range is wider than a turn (axis 6 of the IRB 120).
+/// The maker's flange frame in the base frame for the given joints.
 #[must_use]
-pub fn inverse_within_limits(model: &RobotModel, base_from_flange: &Pose) -> Vec<IkSolution> {
+pub fn forward(robot: &Robot, joints: &Joints) -> Pose {
+    let base_from_tool0 = match &robot.arm {
+        Arm::SphericalWrist(p) => opw::forward(&p.geometry(), &p.model_from_maker(joints)),
+        Arm::Ur(p) => ur::forward(p, &joints.0),
+    };
+    base_from_tool0 * rotation_pose(robot.maker.tool0_from_flange())
+}
+
+/// The wrist point in the base frame: the wrist centre of a spherical wrist, frame 5's origin
+/// of a UR arm (the point the shoulder singularity is about).
+#[must_use]
+pub fn wrist_centre(robot: &Robot, joints: &Joints) -> Point3 {
+    match &robot.arm {
+        Arm::SphericalWrist(p) => opw::wrist_centre(&p.geometry(), &p.model_from_maker(joints)),
+        Arm::Ur(p) => {
+            let flange = ur::forward(p, &joints.0);
+            Point3::from(flange.translation.vector - flange.rotation * Vector3::z() * p.d6)
+        }
+    }
+}
+
+/// Every inverse-kinematics solution for a flange pose (the maker's flange frame), up to
+/// eight, angles wrapped into (−π, π], ignoring joint limits; empty when out of reach.
+#[must_use]
+pub fn inverse(robot: &Robot, base_from_flange: &Pose) -> Vec<IkSolution> {
+    let base_from_tool0 =
+        base_from_flange * rotation_pose(robot.maker.tool0_from_flange().inverse());
+    match &robot.arm {
+        Arm::SphericalWrist(p) => opw::inverse(&p.geometry(), &base_from_tool0)
+            .into_iter()
+            .map(|(model, configuration)| IkSolution {
+                joints: Joints(p.maker_from_model(&model).0.map(wrap)),
+                configuration,
+            })
+            .collect(),
+        Arm::Ur(p) => ur::inverse(p, &base_from_tool0)
+            .into_iter()
+            .map(|(joints, configuration)| IkSolution {
+                joints: Joints(joints),
+                configuration,
+            })
+            .collect(),
+    }
+}
+
+/// Every joint solution inside the robot's limits, with the ±360° copies of each axis whose
+/// range allows them (axis 6 of the IRB 120 and of the KR 6; every axis of a UR).
+#[must_use]
+pub fn inverse_within_limits(robot: &Robot, base_from_flange: &Pose) -> Vec<IkSolution> {
     let mut out = Vec::new();
-    for solution in inverse(&model.geometry, base_from_flange) {
+    for solution in inverse(robot, base_from_flange) {
         let mut candidates = vec![solution];
         for axis in 0..6 {
-            let limit = &model.limits[axis];
+            let limit = &robot.limits[axis];
             let mut next = Vec::new();
             for c in &candidates {
                 for turns in -2..=2 {
@@ -351,51 +378,52 @@ pub fn inverse_within_limits(model: &RobotModel, base_from_flange: &Pose) -> Vec
     out
 }
 
+/// The arm configuration of given joints (the inverse of what [`inverse`] labels).
+#[must_use]
+pub fn configuration_of(robot: &Robot, joints: &Joints) -> ArmConfiguration {
+    match &robot.arm {
+        Arm::SphericalWrist(p) => opw::configuration_of(&p.geometry(), &p.model_from_maker(joints)),
+        Arm::Ur(p) => ur::configuration_of(p, &joints.0),
+    }
+}
+
 /// ABB's `confdata` for a joint solution of an arm in the given configuration.
 #[must_use]
 pub fn confdata(joints: &Joints, configuration: &ArmConfiguration) -> ConfData {
     let quadrant = |angle: f64| (angle / FRAC_PI_2).floor() as i32;
-    let cfx = 4 * i32::from(configuration.shoulder == Shoulder::Back)
-        + 2 * i32::from(configuration.elbow == Elbow::Behind)
-        + i32::from(joints.0[4] < 0.0);
     ConfData {
         cf1: quadrant(joints.0[0]),
         cf4: quadrant(joints.0[3]),
         cf6: quadrant(joints.0[5]),
-        cfx,
+        cfx: i32::from(configuration.code()),
     }
 }
 
-/// The arm configuration of given joints (the inverse of what [`inverse`] labels).
+/// KUKA's Status and Turn ([`StatusTurn`]) of a joint solution.
 #[must_use]
-pub fn configuration_of(geometry: &ArmGeometry, joints: &Joints) -> ArmConfiguration {
+pub fn status_turn(robot: &Robot, joints: &Joints, configuration: &ArmConfiguration) -> StatusTurn {
     let q = &joints.0;
-    let wrist = wrist_centre(geometry, joints);
-    let (s1, c1) = q[0].sin_cos();
-    let reach = c1 * wrist.x + s1 * wrist.y - geometry.shoulder_offset;
-    let height = wrist.z - geometry.shoulder_height;
-    let (s2, c2) = q[1].sin_cos();
-    let to_wrist_reach = reach - geometry.lower_arm * s2;
-    let to_wrist_height = height - geometry.lower_arm * c2;
-    let shoulder = if c1 * wrist.x + s1 * wrist.y >= 0.0 {
-        Shoulder::Front
-    } else {
-        Shoulder::Back
+    let elbow_up = match &robot.arm {
+        Arm::SphericalWrist(p) => {
+            // φ in the maker's convention: OPW's θ3 of the stretched arm is atan2(−a2, c3).
+            let phi = p.sign_corrections[2] * ((-p.a2).atan2(p.c3) + p.offsets[2]);
+            if p.sign_corrections[2] > 0.0 {
+                q[2] >= phi
+            } else {
+                q[2] <= phi
+            }
+        }
+        Arm::Ur(_) => configuration.elbow == Elbow::Front,
     };
-    let elbow = if s2 * to_wrist_height - c2 * to_wrist_reach <= 0.0 {
-        Elbow::Front
-    } else {
-        Elbow::Behind
-    };
-    ArmConfiguration {
-        shoulder,
-        elbow,
-        wrist_flipped: q[4] < 0.0,
-    }
+    let status = u8::from(configuration.shoulder == Shoulder::Back)
+        + 2 * u8::from(elbow_up)
+        + 4 * u8::from(q[4] <= 0.0);
+    let turn = (0..6).map(|i| u8::from(q[i] < 0.0) << i).sum();
+    StatusTurn { status, turn }
 }
 
 /// An angle wrapped into (−π, π].
-fn wrap(angle: f64) -> f64 {
+pub(crate) fn wrap(angle: f64) -> f64 {
     let wrapped = angle.rem_euclid(TAU);
     if wrapped > PI { wrapped - TAU } else { wrapped }
 }
@@ -407,8 +435,8 @@ mod tests {
 
     #[test]
     fn home_is_abbs_calibration_position() {
-        let model = RobotModel::irb120();
-        let home = forward(&model.geometry, &Joints([0.0; 6]));
+        let robot = Robot::irb120();
+        let home = forward(&robot, &Joints([0.0; 6]));
         let t = home.translation.vector;
         assert_relative_eq!(t, Vector3::new(374.0, 0.0, 630.0), epsilon = 1e-9);
         let q = home.rotation.quaternion();

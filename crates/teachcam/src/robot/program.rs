@@ -6,8 +6,9 @@
 //! that honours both takes `Δt` for the move (RAPID `speeddata` `v_tcp`, `v_ori`; KRL
 //! `$VEL.CP`; URScript `movel(..., v=...)`).
 
+use crate::geometry::Vec3;
 use crate::robot::check::CheckReport;
-use crate::robot::kinematics::{ConfData, Joints};
+use crate::robot::kinematics::{ArmConfiguration, Joints, Robot};
 use crate::robot::simplify::{SimplifyConfig, simplify};
 use crate::robot::{Cell, TcpTarget};
 
@@ -19,8 +20,8 @@ pub struct ProgramMove {
     /// The joints the check chose there, `None` for a target the arm cannot reach (a forced
     /// export).
     pub joints: Option<Joints>,
-    /// ABB configuration data of those joints.
-    pub confdata: Option<ConfData>,
+    /// Their arm configuration.
+    pub configuration: Option<ArmConfiguration>,
     /// TCP speed from the previous target, mm/s (zero for the first target).
     pub tcp_speed: f64,
     /// Orientation speed from the previous target, rad/s.
@@ -29,17 +30,62 @@ pub struct ProgramMove {
     pub duration_s: f64,
 }
 
-/// A program: a name, the cell and the moves, the first one the approach.
+/// The tool's load on the flange: RAPID's `tload`, KRL's `$LOAD`, URScript's `set_payload`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolLoad {
+    /// Mass, kilograms.
+    pub mass_kg: f64,
+    /// Centre of gravity in the maker's flange frame, millimetres.
+    pub cog_in_flange: Vec3,
+}
+
+impl ToolLoad {
+    /// Mass of [`ToolLoad::assumed`]: a brush and its holder, kilograms.
+    pub const ASSUMED_MASS_KG: f64 = 0.2;
+
+    /// The load assumed when none is given: 0.2 kg (a brush and its holder) with its centre
+    /// of gravity halfway along the TCP offset (a brush's mass sits on its handle). Measure
+    /// the real one (ABB `LoadIdentify`, KUKA load data determination, UR payload estimation)
+    /// before running fast.
+    #[must_use]
+    pub fn assumed(cell: &Cell) -> Self {
+        Self {
+            mass_kg: Self::ASSUMED_MASS_KG,
+            cog_in_flange: cell.flange_from_tcp.translation.vector / 2.0,
+        }
+    }
+}
+
+/// A program: a name, the robot, the cell and the moves, the first one the approach.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Program {
     /// Identifier of the program (a valid RAPID/KRL/URScript name).
     pub name: String,
+    /// The robot it was checked on.
+    pub robot: Robot,
     /// The work object and the TCP on the flange.
     pub cell: Cell,
+    /// The tool's load, `None` when not given ([`Program::tool_load`] then assumes one).
+    pub load: Option<ToolLoad>,
     /// The path tolerance the targets were simplified with (zones are chosen from it).
     pub tolerance: SimplifyConfig,
     /// The moves in order.
     pub moves: Vec<ProgramMove>,
+}
+
+impl Program {
+    /// The tool's load: the one given, else [`ToolLoad::assumed`]; with a note for the
+    /// program's comment saying which.
+    #[must_use]
+    pub fn tool_load(&self) -> (ToolLoad, &'static str) {
+        match self.load {
+            Some(load) => (load, "given"),
+            None => (
+                ToolLoad::assumed(&self.cell),
+                "assumed (0.2 kg at half the TCP offset; set --tool-mass and --tool-cog)",
+            ),
+        }
+    }
 }
 
 /// Builds a program from a checked path, dropping the targets that the simplified path
@@ -70,7 +116,7 @@ pub fn build_program(
         moves.push(ProgramMove {
             target: frame.target,
             joints: frame.joints,
-            confdata: frame.confdata,
+            configuration: frame.configuration,
             tcp_speed,
             orientation_speed,
             duration_s,
@@ -78,7 +124,9 @@ pub fn build_program(
     }
     Program {
         name: identifier(name),
+        robot: report.robot.clone(),
         cell: *cell,
+        load: None,
         tolerance: *tolerance,
         moves,
     }

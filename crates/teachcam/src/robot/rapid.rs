@@ -3,7 +3,8 @@
 //! and `MoveL` instructions in routines of bounded length called in order from `main`.
 //!
 //! Syntax from ABB's "Technical reference manual – RAPID Instructions, Functions and Data
-//! types": `tooldata = [robhold, tframe, tload]`, `loaddata = [mass, cog, aom, ix, iy, iz]`,
+//! types": `tooldata = [robhold, tframe, tload]` (the load from `--tool-mass` and `--tool-cog`, else
+//! [`crate::robot::program::ToolLoad::assumed`], said in the module's comment), `loaddata = [mass, cog, aom, ix, iy, iz]`,
 //! `wobjdata = [robhold, ufprog, ufmec, uframe, oframe]`,
 //! `robtarget = [trans, rot (q1..q4 = qw, qx, qy, qz), robconf [cf1, cf4, cf6, cfx], extax]`,
 //! `speeddata = [v_tcp mm/s, v_ori °/s, v_leax mm/s, v_reax °/s]`; predefined `zonedata` `z0`
@@ -13,14 +14,12 @@
 use std::fmt::Write as _;
 
 use crate::geometry::{Pose, Quat};
+use crate::robot::kinematics::confdata;
 use crate::robot::program::{Program, ProgramMove};
 
 /// Options of [`rapid_module`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RapidConfig {
-    /// The tool's mass, kilograms (`tload.mass`, must be positive). Default 0.2 kg: a brush
-    /// and its holder; measure the real one (`LoadIdentify`) before running fast.
-    pub tool_mass_kg: f64,
     /// Most `MoveL`s in one routine. Default 500: long paths are split into routines
     /// `path_1`, `path_2`, … called in order, which keeps each one quick to open on the
     /// FlexPendant and under the controller's routine size limits.
@@ -30,11 +29,13 @@ pub struct RapidConfig {
 impl Default for RapidConfig {
     fn default() -> Self {
         Self {
-            tool_mass_kg: 0.2,
             max_moves_per_routine: 500,
         }
     }
 }
+
+/// Lowest tool mass written, kilograms: RAPID refuses a `tload` with a zero mass.
+const MIN_TOOL_MASS_KG: f64 = 0.001;
 
 /// Extra-axis values of a robot without external axes.
 const NO_EXTERNAL_AXES: &str = "[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]";
@@ -60,13 +61,21 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
         program.tolerance.orientation_tolerance.to_degrees()
     );
     let tcp = &program.cell.flange_from_tcp;
-    // Centre of gravity halfway along the TCP offset: a brush's mass sits on its handle.
-    let cog = tcp.translation.vector / 2.0;
+    let (load, how) = program.tool_load();
+    let cog = load.cog_in_flange;
+    let _ = writeln!(
+        out,
+        "  ! Tool load {} kg at ({}, {}, {}) mm in tool0, {how}.",
+        number(load.mass_kg, 3),
+        number(cog.x, 1),
+        number(cog.y, 1),
+        number(cog.z, 1)
+    );
     let _ = writeln!(
         out,
         "  PERS tooldata {tool} := [TRUE,{},[{},[{},{},{}],[1,0,0,0],0,0,0]];",
         pose_literal(tcp),
-        number(config.tool_mass_kg.max(0.001), 3),
+        number(load.mass_kg.max(MIN_TOOL_MASS_KG), 3),
         number(cog.x, 3),
         number(cog.y, 3),
         number(cog.z, 3)
@@ -181,10 +190,13 @@ fn pose_literal(pose: &Pose) -> String {
 fn robtarget_literal(m: &ProgramMove) -> String {
     let pose = pose_literal(&m.target.wobj_from_tcp);
     let pose = &pose[1..pose.len() - 1];
-    let conf = m.confdata.map_or_else(
-        || "[0,0,0,0]".to_string(),
-        |c| format!("[{},{},{},{}]", c.cf1, c.cf4, c.cf6, c.cfx),
-    );
+    let conf = match (m.joints, m.configuration) {
+        (Some(joints), Some(configuration)) => {
+            let c = confdata(&joints, &configuration);
+            format!("[{},{},{},{}]", c.cf1, c.cf4, c.cf6, c.cfx)
+        }
+        _ => "[0,0,0,0]".to_string(),
+    };
     format!("[{pose},{conf},{NO_EXTERNAL_AXES}]")
 }
 

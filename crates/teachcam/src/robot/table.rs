@@ -2,29 +2,35 @@
 //! and the TCP poses with their joints (`export csv`).
 //!
 //! ```text
-//! frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,time_s,cf1,cf4,cf6,cfx,ok
-//! frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,j1_deg,...,j6_deg,cf1,cf4,cf6,cfx
+//! frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,time_s,<configuration>,ok
+//! frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,j1_deg,...,j6_deg,<configuration>
 //! ```
-//! Joint angles in degrees in the controller's convention (ABB: as in a `jointtarget`); TCP
-//! poses are `wobj_from_tcp`. A frame without a joint solution keeps its row with the joint
+//! Joint angles in degrees in the maker's convention (ABB: as in a `jointtarget`; KUKA: A1–A6
+//! as the pendant shows them; UR: `movej`'s angles in degrees). The configuration columns are
+//! the maker's: ABB `cf1,cf4,cf6,cfx` (`confdata`), KUKA `s,t` (Status and Turn), UR
+//! `configuration` (0..7, [`crate::robot::kinematics::ArmConfiguration::code`]). TCP poses are
+//! `wobj_from_tcp`. A frame without a joint solution keeps its row with the joint
 //! fields empty, as trajectory gaps do.
 
 use std::fmt::Write as _;
 
 use crate::geometry::Quat;
 use crate::robot::check::{CheckReport, FrameCheck};
+use crate::robot::kinematics::{Maker, Robot, confdata, status_turn};
 use crate::robot::program::Program;
 
 /// The joints table of a check (`--joints-out`).
 #[must_use]
 pub fn joints_csv(report: &CheckReport) -> String {
-    let mut out =
-        String::from("frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,time_s,cf1,cf4,cf6,cfx,ok\n");
+    let mut out = format!(
+        "frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,time_s,{},ok\n",
+        configuration_header(report.robot.maker)
+    );
     for f in &report.frames {
         let _ = write!(out, "{}", f.target.frame.0);
         push_joints(&mut out, f);
         let _ = write!(out, ",{:.6}", f.target.time_s);
-        push_conf(&mut out, f);
+        push_conf(&mut out, &report.robot, f);
         let _ = writeln!(out, ",{}", u8::from(f.passes()));
     }
     out
@@ -33,8 +39,9 @@ pub fn joints_csv(report: &CheckReport) -> String {
 /// The TCP poses and joints of a checked path, every frame (not simplified).
 #[must_use]
 pub fn poses_csv(report: &CheckReport) -> String {
-    let mut out = String::from(
-        "frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,cf1,cf4,cf6,cfx\n",
+    let mut out = format!(
+        "frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,{}\n",
+        configuration_header(report.robot.maker)
     );
     let mut previous: Option<Quat> = None;
     for f in &report.frames {
@@ -49,7 +56,7 @@ pub fn poses_csv(report: &CheckReport) -> String {
             f.target.frame.0, f.target.time_s, t.x, t.y, t.z, q.w, q.x, q.y, q.z
         );
         push_joints(&mut out, f);
-        push_conf(&mut out, f);
+        push_conf(&mut out, &report.robot, f);
         out.push('\n');
     }
     out
@@ -95,11 +102,33 @@ fn push_joints(out: &mut String, f: &FrameCheck) {
     }
 }
 
-fn push_conf(out: &mut String, f: &FrameCheck) {
-    match f.confdata {
-        Some(c) => {
-            let _ = write!(out, ",{},{},{},{}", c.cf1, c.cf4, c.cf6, c.cfx);
-        }
-        None => out.push_str(",,,,"),
+/// The names of the maker's configuration columns.
+fn configuration_header(maker: Maker) -> &'static str {
+    match maker {
+        Maker::Abb => "cf1,cf4,cf6,cfx",
+        Maker::Kuka => "s,t",
+        Maker::UniversalRobots => "configuration",
     }
+}
+
+fn push_conf(out: &mut String, robot: &Robot, f: &FrameCheck) {
+    let (Some(joints), Some(configuration)) = (f.joints, f.configuration) else {
+        out.push_str(match robot.maker {
+            Maker::Abb => ",,,,",
+            Maker::Kuka => ",,",
+            Maker::UniversalRobots => ",",
+        });
+        return;
+    };
+    let _ = match robot.maker {
+        Maker::Abb => {
+            let c = confdata(&joints, &configuration);
+            write!(out, ",{},{},{},{}", c.cf1, c.cf4, c.cf6, c.cfx)
+        }
+        Maker::Kuka => {
+            let st = status_turn(robot, &joints, &configuration);
+            write!(out, ",{},{}", st.status, st.turn)
+        }
+        Maker::UniversalRobots => write!(out, ",{}", configuration.code()),
+    };
 }

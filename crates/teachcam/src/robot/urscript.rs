@@ -1,11 +1,15 @@
-//! Universal Robots URScript: one `def … end` function that sets the TCP, holds the work
-//! object as a pose and moves linearly (`movel`) through every target at the recorded speeds,
-//! blending within the path tolerance.
+//! Universal Robots URScript: one `def … end` function that sets the TCP (`set_tcp`) and the
+//! payload (`set_payload`), holds the work object as a pose, moves to the first target's joint
+//! solution with `movej` (the arm starts in the configuration the check chose) and then
+//! linearly (`movel`) through every target at the recorded speeds, blending within the path
+//! tolerance.
 //!
-//! Conventions (URScript manual): poses `p[x, y, z, rx, ry, rz]` in metres with the orientation
-//! as a rotation vector (axis times angle, radians); `movel(pose, a, v, t, r)` with `v` in m/s,
-//! `a` in m/s² and the blend radius `r` in metres; `pose_trans(wobj, target)` composes the work
-//! object with a target given in it, like RAPID's `\WObj`.
+//! Conventions (URScript manual, e-Series): poses `p[x, y, z, rx, ry, rz]` in metres with the
+//! orientation as a rotation vector (axis times angle, radians); `movej(q, a, v)` with joint
+//! angles in radians, `a` in rad/s², `v` in rad/s; `movel(pose, a, v, t, r)` with `v` in m/s,
+//! `a` in m/s² and the blend radius `r` in metres; `set_payload(m, cog)` in kg and metres in
+//! the tool flange frame; `pose_trans(wobj, target)` composes the work object with a target
+//! given in it, like RAPID's `\WObj`. [`URSCRIPT_FUNCTIONS`] lists every function written.
 
 use std::fmt::Write as _;
 
@@ -31,6 +35,27 @@ impl Default for UrScriptConfig {
 /// Lowest speed written, m/s: `movel` needs a positive speed.
 const MIN_SPEED_M_S: f64 = 0.00001;
 
+/// Joint speed and acceleration of the approach `movej`, rad/s and rad/s²: a careful approach
+/// from wherever the arm stands (URScript's defaults are 1.05 rad/s and 1.4 rad/s²).
+const APPROACH_SPEED_RAD_S: f64 = 0.5;
+const APPROACH_ACCELERATION_RAD_S2: f64 = 1.4;
+
+/// Every URScript function the writer calls, with the fewest and most arguments the URScript
+/// manual allows it: a test checks every generated call against this table, and the table
+/// against the manual's signatures.
+pub const URSCRIPT_FUNCTIONS: [(&str, usize, usize); 5] = [
+    // movej(q, a=1.4, v=1.05, t=0, r=0)
+    ("movej", 1, 5),
+    // movel(pose, a=1.2, v=0.25, t=0, r=0)
+    ("movel", 1, 5),
+    // pose_trans(p_from, p_from_to)
+    ("pose_trans", 2, 2),
+    // set_payload(m, cog)
+    ("set_payload", 1, 2),
+    // set_tcp(pose)
+    ("set_tcp", 1, 1),
+];
+
 /// The URScript text of a program.
 #[must_use]
 pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
@@ -39,14 +64,26 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
     let _ = writeln!(out, "def {name}():");
     let _ = writeln!(
         out,
-        "  # Written by teachcam: {} moves, path tolerance {:.3} mm.",
+        "  # Written by teachcam for the {}: {} moves, path tolerance {:.3} mm.",
+        program.robot.name,
         program.moves.len(),
         program.tolerance.position_tolerance
     );
+    let (load, how) = program.tool_load();
+    let _ = writeln!(out, "  # Payload {how}.");
     let _ = writeln!(
         out,
         "  set_tcp({})",
         pose_literal(&program.cell.flange_from_tcp)
+    );
+    let cog = load.cog_in_flange / 1000.0;
+    let _ = writeln!(
+        out,
+        "  set_payload({}, [{}, {}, {}])",
+        number(load.mass_kg.max(0.0), 3),
+        number(cog.x, 6),
+        number(cog.y, 6),
+        number(cog.z, 6)
     );
     let _ = writeln!(
         out,
@@ -60,7 +97,22 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
     for (i, m) in program.moves.iter().enumerate() {
         let pose = pose_literal(&m.target.wobj_from_tcp);
         if i == 0 {
-            let _ = writeln!(out, "  movel(pose_trans(wobj, {pose}), a={a}, v=0.1)");
+            match m.joints {
+                Some(joints) => {
+                    let q: Vec<String> = joints.0.iter().map(|v| number(*v, 6)).collect();
+                    let _ = writeln!(
+                        out,
+                        "  movej([{}], a={}, v={})",
+                        q.join(", "),
+                        number(APPROACH_ACCELERATION_RAD_S2, 3),
+                        number(APPROACH_SPEED_RAD_S, 3)
+                    );
+                }
+                // A forced export of an unreachable first target: no joints to go to.
+                None => {
+                    let _ = writeln!(out, "  movel(pose_trans(wobj, {pose}), a={a}, v=0.1)");
+                }
+            }
             continue;
         }
         let v = number((m.tcp_speed / 1000.0).max(MIN_SPEED_M_S), 6);
