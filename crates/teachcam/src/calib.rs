@@ -20,6 +20,7 @@ pub mod chessboard;
 pub mod intrinsics;
 pub mod lm;
 pub mod rig;
+pub mod wand;
 pub mod zhang;
 
 use crate::geometry::Point3;

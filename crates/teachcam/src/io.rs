@@ -10,6 +10,7 @@ pub mod recording;
 pub mod rig;
 pub mod robot;
 pub mod tool;
+pub mod wand;
 pub mod trajectory;
 
 use std::path::{Path, PathBuf};

@@ -24,6 +24,7 @@ pub mod optics;
 pub mod real_world;
 pub mod render;
 pub mod scenario;
+pub mod wand;
 
 use std::path::Path;
 
@@ -75,11 +76,15 @@ pub enum Scenario {
     /// touching markers' images), streaks, the brush's mirror image in a shiny work object,
     /// markers whose images touch; the paper's clean optics.
     FourCamerasHard,
+    /// A calibration wand (0/160/500 mm) waved through the four-camera rig, 400 frames at
+    /// 60 Hz, 10 % of camera-frames imperfect, and an L-frame on the work object: see
+    /// [`wand`]. Written by [`wand::write_wand_scenario`], not as one recording.
+    Wand,
 }
 
 impl Scenario {
     /// Every scenario, for listings and help.
-    pub const ALL: [Scenario; 10] = [
+    pub const ALL: [Scenario; 11] = [
         Scenario::Paper,
         Scenario::Static,
         Scenario::Occluded,
@@ -90,6 +95,7 @@ impl Scenario {
         Scenario::StereoIrMiscal,
         Scenario::Unsynced,
         Scenario::FourCamerasHard,
+        Scenario::Wand,
     ];
 
     /// The scenario's command-line name.
@@ -106,6 +112,7 @@ impl Scenario {
             Self::StereoIrMiscal => "stereo-ir-miscal",
             Self::Unsynced => "unsynced",
             Self::FourCamerasHard => "four-cameras-hard",
+            Self::Wand => "wand",
         }
     }
 
@@ -120,7 +127,10 @@ impl Scenario {
     #[must_use]
     pub fn rig(self) -> Rig {
         match self {
-            Self::FourCameras | Self::FourCamerasCalibration | Self::FourCamerasHard => {
+            Self::FourCameras
+            | Self::FourCamerasCalibration
+            | Self::FourCamerasHard
+            | Self::Wand => {
                 scenario::four_camera_rig()
             }
             Self::Paper | Self::Static | Self::Occluded | Self::Calibration | Self::Unsynced => {
@@ -226,6 +236,10 @@ pub enum Motion {
     },
     /// A hand waving the triangle in front of the PS3 Eye pair ([`real_world::hand_motion`]).
     Hand,
+    /// A calibration wand waved through the volume ([`wand::wand_dance`]).
+    WandDance,
+    /// At rest at this pose.
+    Resting(Pose),
 }
 
 impl Motion {
@@ -238,6 +252,8 @@ impl Motion {
             }
             Self::Still { time_s } => scenario::painter_stroke(time_s),
             Self::Hand => real_world::hand_motion(time_s),
+            Self::WandDance => wand::wand_dance(time_s),
+            Self::Resting(pose) => pose,
         }
     }
 }
@@ -415,13 +431,17 @@ pub fn build_scene(scenario: Scenario, seed: u64) -> Scene {
             scene.time_offsets_s = vec![0.0, 0.0093, -0.0131];
         }
         Scenario::FourCamerasHard => clutter::four_cameras_hard(&mut scene, seed),
+        Scenario::Wand => {
+            wand::dress(&mut scene, seed);
+            frames = wand::WAND_FRAMES;
+        }
     }
     scene.truth = truth(&scene, frames);
     scene
 }
 
 /// The true poses of the first `frames` frames of a scene's motion.
-fn truth(scene: &Scene, frames: usize) -> Trajectory {
+pub(crate) fn truth(scene: &Scene, frames: usize) -> Trajectory {
     let tool = &scene.tool;
     let samples = (0..frames)
         .map(|f| {

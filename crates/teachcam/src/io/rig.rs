@@ -125,6 +125,19 @@ impl CameraFile {
 /// # Errors
 /// [`FileError::Invalid`] naming the camera and the field.
 pub fn read_rig(path: &Path) -> Result<Rig, FileError> {
+    read_rig_file(path, true)
+}
+
+/// Reads a cameras file (`teachcam calibrate wand --cameras`): a rig file whose cameras may
+/// lack extrinsics (they are then the identity); checked as [`read_rig`] otherwise.
+///
+/// # Errors
+/// [`FileError::Invalid`] naming the camera and the field.
+pub fn read_cameras(path: &Path) -> Result<Rig, FileError> {
+    read_rig_file(path, false)
+}
+
+fn read_rig_file(path: &Path, extrinsics_required: bool) -> Result<Rig, FileError> {
     let file: RigFile = parse_json(path, &read_text(path)?)?;
     if file.units != "mm" {
         return Err(FileError::invalid(
@@ -143,7 +156,7 @@ pub fn read_rig(path: &Path) -> Result<Rig, FileError> {
                 format!("camera {i}: name \"{}\" is used twice", c.name),
             ));
         }
-        if c.rotation.is_none() || c.translation.is_none() {
+        if extrinsics_required && (c.rotation.is_none() || c.translation.is_none()) {
             return Err(FileError::invalid(
                 path,
                 format!(
@@ -158,6 +171,26 @@ pub fn read_rig(path: &Path) -> Result<Rig, FileError> {
         );
     }
     Ok(Rig { cameras })
+}
+
+/// Writes a cameras file whole: the rig's intrinsics without extrinsics.
+///
+/// # Errors
+/// [`FileError::Write`].
+pub fn write_cameras(path: &Path, rig: &Rig) -> Result<(), FileError> {
+    let file = RigFile {
+        units: "mm".into(),
+        cameras: rig
+            .cameras
+            .iter()
+            .map(|c| CameraFile {
+                rotation: None,
+                translation: None,
+                ..CameraFile::from_camera(c)
+            })
+            .collect(),
+    };
+    write_json(path, &file)
 }
 
 /// Writes a rig file whole.
