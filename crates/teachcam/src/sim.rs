@@ -130,9 +130,7 @@ impl Scenario {
             Self::FourCameras
             | Self::FourCamerasCalibration
             | Self::FourCamerasHard
-            | Self::Wand => {
-                scenario::four_camera_rig()
-            }
+            | Self::Wand => scenario::four_camera_rig(),
             Self::Paper | Self::Static | Self::Occluded | Self::Calibration | Self::Unsynced => {
                 scenario::paper_rig()
             }

@@ -1,4 +1,7 @@
-//! `teachcam calibrate intrinsics|rig`: chessboard photographs to a camera or a whole rig.
+//! `teachcam calibrate intrinsics|rig|wand`: chessboard photographs to a camera or a whole rig;
+//! a wand dance to a rig ([`wand`]).
+
+mod wand;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -40,6 +43,7 @@ pub struct Args {
 pub enum Calibrate {
     Intrinsics(IntrinsicsArgs),
     Rig(RigArgs),
+    Wand(wand::WandArgs),
 }
 
 /// The calibration target.
@@ -191,6 +195,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     match &args.command {
         Calibrate::Intrinsics(a) => run_intrinsics(a),
         Calibrate::Rig(a) => run_rig(a),
+        Calibrate::Wand(a) => wand::run_wand(a),
     }
 }
 

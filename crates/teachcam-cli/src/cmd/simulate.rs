@@ -6,6 +6,7 @@ use anyhow::Context;
 use teachcam::sim::calibration::{
     IMAGES_PER_CAMERA_FOR_0_02_DEG, PlacementCount, calibration_scene_with, write_calibration,
 };
+use teachcam::sim::wand::{GROUND_FRAMES, WAND_FRAMES, write_wand_scenario};
 use teachcam::sim::{Scenario, build_scene, write_scene};
 
 use crate::progress::Progress;
@@ -38,11 +39,18 @@ use crate::progress::Progress;
 /// (each view's world_from_board), `corners.csv` (true corners) and `calibration.json`
 /// (the world view, its offset from the simulator's world, the command to run).
 ///
+/// `wand` writes a wand calibration: `wand/` (a 0/160/500 mm wand waved through the
+/// four-camera rig, 400 frames at 60 Hz, 10 % of camera-frames with a marker hidden or a
+/// glint), `ground/` (an L-frame lying still on the work object, 30 frames), `cameras.json`
+/// (the true intrinsics, no extrinsics), `wand.json`, `lframe.json` and the true rig
+/// `rig_true.json` (world = the L-frame's frame), for `teachcam calibrate wand`.
+///
 /// Example: `teachcam simulate --scenario paper --out rec`
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Scenario name: paper, static, occluded, four-cameras, calibration,
-    /// four-cameras-calibration, stereo-ir, stereo-ir-miscal, unsynced or four-cameras-hard.
+    /// four-cameras-calibration, stereo-ir, stereo-ir-miscal, unsynced, four-cameras-hard or
+    /// wand.
     #[arg(long, default_value = "paper")]
     pub scenario: String,
     /// Output folder (created; files in it are replaced).
@@ -75,6 +83,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             names.join(", ")
         )
     })?;
+    if scenario == Scenario::Wand {
+        let frames = args.frames.unwrap_or(WAND_FRAMES).min(WAND_FRAMES);
+        if frames == 0 {
+            anyhow::bail!("--frames must be at least 1");
+        }
+        let progress = Progress::new("simulate", (frames + GROUND_FRAMES) as u64);
+        write_wand_scenario(&args.out, args.seed, Some(frames), &|| progress.tick())
+            .with_context(|| format!("writing the simulation to {}", args.out.display()))?;
+        progress.finish();
+        eprintln!(
+            "wrote a wand dance of {frames} frames and a ground frame of {GROUND_FRAMES} frames x 4 cameras to {} (wand/, ground/, cameras.json, wand.json, lframe.json, rig_true.json)",
+            args.out.display()
+        );
+        return Ok(());
+    }
     if scenario.is_calibration() {
         if args.frames.is_some() {
             anyhow::bail!(

@@ -27,16 +27,18 @@
 
 mod bundle;
 mod essential;
+mod ground;
+mod views;
+
+pub use ground::{GroundReport, set_ground};
+pub use views::{WandFrame, WandViews, wand_views};
 
 use std::collections::BTreeMap;
 
 use nalgebra::{Point2, Unit};
 
 use crate::camera::Rig;
-use crate::correspond::Views;
-use crate::geometry::{CameraId, Pixel, Point3, Pose, Quat};
-use crate::tool::Tool;
-use crate::track::{TrackConfig, Tracker};
+use crate::geometry::{CameraId, Pixel, Point3, Pose};
 use crate::triangulate::{TriangulateConfig, triangulate};
 
 use super::intrinsics::{CameraParams, params_of};
@@ -73,7 +75,7 @@ impl Wand {
             ));
         }
         let [a, b, c] = markers_mm;
-        if !markers_mm.iter().all(|v| v.is_finite()) || !(a < b && b < c) {
+        if !(markers_mm.iter().all(|v| v.is_finite()) && a < b && b < c) {
             return bad(format!(
                 "markers_mm must be three increasing positions, got [{a}, {b}, {c}]"
             ));
@@ -129,7 +131,9 @@ pub enum WandError {
         message: String,
     },
     /// Too few frames show the wand in two or more cameras.
-    #[error("{found} frames show the wand whole in two or more cameras; calibration needs at least {needed}")]
+    #[error(
+        "{found} frames show the wand whole in two or more cameras; calibration needs at least {needed}"
+    )]
     TooFewFrames {
         /// Frames found.
         found: usize,
@@ -137,7 +141,9 @@ pub enum WandError {
         needed: usize,
     },
     /// A camera shares too few wand frames with the cameras already placed.
-    #[error("camera {camera} shares at most {shared} wand frames with the cameras placed before it (needs {needed}): wave the wand where it and another camera both see it")]
+    #[error(
+        "camera {camera} shares at most {shared} wand frames with the cameras placed before it (needs {needed}): wave the wand where it and another camera both see it"
+    )]
     CameraNotLinked {
         /// The camera's name.
         camera: String,
@@ -147,7 +153,9 @@ pub enum WandError {
         needed: usize,
     },
     /// A camera pair's correspondences define no relative pose.
-    #[error("cameras {a} and {b}: their wand views define no relative pose (the wand barely moved, or stayed in a plane through both cameras)")]
+    #[error(
+        "cameras {a} and {b}: their wand views define no relative pose (the wand barely moved, or stayed in a plane through both cameras)"
+    )]
     DegeneratePair {
         /// One camera.
         a: String,
@@ -155,7 +163,9 @@ pub enum WandError {
         b: String,
     },
     /// The wand's markers stayed near one plane: the depth across it is undetermined.
-    #[error("the wand's markers stayed within {thickness_mm:.1} mm of one plane ({extent_mm:.0} mm across): wave it through the volume, not in a plane")]
+    #[error(
+        "the wand's markers stayed within {thickness_mm:.1} mm of one plane ({extent_mm:.0} mm across): wave it through the volume, not in a plane"
+    )]
     PlanarDance {
         /// RMS distance of the markers from their best plane, millimetres.
         thickness_mm: f64,
@@ -220,103 +230,8 @@ impl Default for WandConfig {
     }
 }
 
-/// One frame's wand views: per camera the three pixels (as detected) in wand order.
-pub type WandFrame = BTreeMap<CameraId, [Pixel; 3]>;
-
-/// What [`wand_views`] kept and why it left the rest.
-#[derive(Debug, Clone, PartialEq)]
-pub struct WandViews {
-    /// Per frame of the recording, the cameras that saw the wand whole.
-    pub frames: Vec<WandFrame>,
-    /// Camera-frames with exactly three blobs.
-    pub three_blobs: usize,
-    /// Of those, left out as not collinear.
-    pub not_collinear: usize,
-    /// Of those, left out because the split could not tell the ends apart.
-    pub ambiguous_ends: usize,
-    /// The collinearity gate used, ideal pixels.
-    pub line_gate_px: f64,
-}
-
-/// The wand in every camera-frame showing exactly three blobs that lie on one line (ideal
-/// pixels, within a gate measured from all such camera-frames) with the middle one nearer the
-/// end of marker 0 (`rig` supplies each camera's intrinsics; `frames[f][camera]` are its blob
-/// centres). Cameras missing from `rig` are ignored.
-#[must_use]
-pub fn wand_views(rig: &Rig, frames: &[Views], wand: &Wand, config: &WandConfig) -> WandViews {
-    // (frame, camera, detected pixels, off-line distance, split) of every three-blob view.
-    let mut candidates: Vec<(usize, CameraId, [Pixel; 3], f64, f64)> = Vec::new();
-    for (f, views) in frames.iter().enumerate() {
-        for (&id, blobs) in views {
-            let (Some(camera), [a, b, c]) = (rig.camera(id), blobs.as_slice()) else {
-                continue;
-            };
-            let pixels = [*a, *b, *c];
-            let Ok(ideal) = pixels
-                .iter()
-                .map(|p| camera.ideal_pixel(p))
-                .collect::<Result<Vec<_>, _>>()
-            else {
-                continue;
-            };
-            // The ends: the farthest pair.
-            let pairs = [(0, 1, 2), (0, 2, 1), (1, 2, 0)];
-            let Some(&(i, j, m)) = pairs.iter().max_by(|p, q| {
-                ideal[p.0]
-                    .distance(&ideal[p.1])
-                    .total_cmp(&ideal[q.0].distance(&ideal[q.1]))
-            }) else {
-                continue;
-            };
-            let length = ideal[i].distance(&ideal[j]);
-            if length <= 0.0 {
-                continue;
-            }
-            let (ex, ey) = (
-                (ideal[j].x - ideal[i].x) / length,
-                (ideal[j].y - ideal[i].y) / length,
-            );
-            let (mx, my) = (ideal[m].x - ideal[i].x, ideal[m].y - ideal[i].y);
-            let off_line = (mx * ey - my * ex).abs();
-            let along = (mx * ex + my * ey) / length;
-            // Marker 0 is the end nearer the middle marker (for a split below one half).
-            let near_i = (along < 0.5) == (wand.split() < 0.5);
-            let (first, last) = if near_i { (i, j) } else { (j, i) };
-            let split = if near_i { along } else { 1.0 - along };
-            candidates.push((
-                f,
-                id,
-                [pixels[first], pixels[m], pixels[last]],
-                off_line,
-                split,
-            ));
-        }
-    }
-    let off_lines: Vec<f64> = candidates.iter().map(|c| c.3).collect();
-    let line_gate_px = robust_gate(&off_lines, config.gate_mads).map_or(config.min_line_gate_px, |g| {
-        g.max(config.min_line_gate_px)
-    });
-    let mut out = WandViews {
-        frames: vec![WandFrame::new(); frames.len()],
-        three_blobs: candidates.len(),
-        not_collinear: 0,
-        ambiguous_ends: 0,
-        line_gate_px,
-    };
-    for (f, id, ordered, off_line, split) in candidates {
-        if off_line > line_gate_px {
-            out.not_collinear += 1;
-        } else if (split.min(1.0 - split) - 0.5).abs() < MIN_SPLIT_ASYMMETRY {
-            out.ambiguous_ends += 1;
-        } else {
-            out.frames[f].insert(id, ordered);
-        }
-    }
-    out
-}
-
 /// The median, `None` for no values.
-fn median(values: &[f64]) -> Option<f64> {
+pub(super) fn median(values: &[f64]) -> Option<f64> {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.is_empty() {
         return None;
@@ -331,7 +246,7 @@ fn median(values: &[f64]) -> Option<f64> {
 }
 
 /// `median + k · 1.4826 · MAD` of the values (Rousseeuw & Croux 1993), `None` for none.
-fn robust_gate(values: &[f64], k: f64) -> Option<f64> {
+pub(super) fn robust_gate(values: &[f64], k: f64) -> Option<f64> {
     let m = median(values)?;
     let deviations: Vec<f64> = values.iter().map(|v| (v - m).abs()).collect();
     Some(m + k * 1.4826 * median(&deviations)?)
@@ -421,7 +336,9 @@ pub fn calibrate_wand(
         let marker = |k: usize| {
             let pixels: BTreeMap<CameraId, Pixel> =
                 frame.iter().map(|(id, p)| (*id, p[k])).collect();
-            triangulate(&start_rig, &pixels, &loose).ok().map(|t| t.position)
+            triangulate(&start_rig, &pixels, &loose)
+                .ok()
+                .map(|t| t.position)
         };
         let (Some(x0), Some(x2)) = (marker(0), marker(2)) else {
             continue;
@@ -444,12 +361,13 @@ pub fn calibrate_wand(
     let (state, report, gate_px) = loop {
         round += 1;
         let problem = Bundle::new(&params, &frames, &positions, 0);
-        let (solved, report) = problem
-            .solve(state.clone(), &config.lm)
-            .ok_or_else(|| WandError::Bundle {
-                message: "the residuals are undefined at the start (a wand behind a camera)"
-                    .into(),
-            })?;
+        let (solved, report) =
+            problem
+                .solve(state.clone(), &config.lm)
+                .ok_or_else(|| WandError::Bundle {
+                    message: "the residuals are undefined at the start (a wand behind a camera)"
+                        .into(),
+                })?;
         iterations += report.iterations;
         // Every camera-frame's RMS, then the gate.
         let rms: Vec<Vec<f64>> = frames
@@ -534,7 +452,9 @@ pub fn calibrate_wand(
         .clone()
         .try_inverse()
         .map(|m| m * sigma2)
-        .unwrap_or_else(|| nalgebra::DMatrix::from_element(report.jtj.nrows(), report.jtj.ncols(), f64::NAN));
+        .unwrap_or_else(|| {
+            nalgebra::DMatrix::from_element(report.jtj.nrows(), report.jtj.ncols(), f64::NAN)
+        });
     let problem = Bundle::new(&params, &frames, &positions, 0);
     let cameras = rig
         .cameras
@@ -601,9 +521,8 @@ fn initial_cameras(
     if let Some(first) = placed.first_mut() {
         *first = Some(Pose::identity());
     }
-    let normalised = |id: CameraId, px: &Pixel| -> Option<Point2<f64>> {
-        rig.camera(id)?.undistort(px).ok()
-    };
+    let normalised =
+        |id: CameraId, px: &Pixel| -> Option<Point2<f64>> { rig.camera(id)?.undistort(px).ok() };
     while placed.iter().any(Option::is_none) {
         // The (placed, unplaced) pair sharing most frames.
         let mut best: Option<(usize, usize, usize)> = None;
@@ -654,7 +573,10 @@ fn initial_cameras(
         let a_from_world = placed[a].unwrap_or_else(Pose::identity);
         placed[b] = Some(b_from_a * a_from_world);
     }
-    Ok(placed.into_iter().map(|p| p.unwrap_or_else(Pose::identity)).collect())
+    Ok(placed
+        .into_iter()
+        .map(|p| p.unwrap_or_else(Pose::identity))
+        .collect())
 }
 
 /// Refuses a dance whose markers stayed near one plane.
@@ -666,7 +588,9 @@ fn check_spread(wands: &[WandPose], positions: &[f64; 3]) -> Result<(), WandErro
     if points.is_empty() {
         return Ok(());
     }
-    let mean = points.iter().fold(nalgebra::Vector3::zeros(), |s, p| s + p.coords)
+    let mean = points
+        .iter()
+        .fold(nalgebra::Vector3::zeros(), |s, p| s + p.coords)
         / points.len() as f64;
     let mut scatter = nalgebra::Matrix3::zeros();
     for p in &points {
@@ -713,95 +637,4 @@ fn length_errors(rig: &Rig, frames: &[Vec<Observation>], wand: &Wand) -> (f64, f
     let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
     let max = errors.iter().fold(0.0f64, |m, e| m.max(e.abs()));
     (rms, max)
-}
-
-/// How the ground frame was set.
-#[derive(Debug, Clone, PartialEq)]
-pub struct GroundReport {
-    /// Frames of the ground recording posed.
-    pub posed: usize,
-    /// Frames in the ground recording.
-    pub frames: usize,
-    /// The marker frame's pose in the old world (camera 0), the average over posed frames.
-    pub old_from_ground: Pose,
-    /// RMS scatter of the posed frames' origins about the average, millimetres.
-    pub scatter_mm: f64,
-    /// Mean registration RMS of the posed frames, millimetres.
-    pub registration_rms_mm: f64,
-}
-
-/// Frames of the ground recording that must be posed: 3, and at least half of them.
-const MIN_GROUND_FRAMES: usize = 3;
-
-/// `rig` with its world moved to the tool frame of `ground` (a marker frame lying still on the
-/// work object), tracked through `rig` in every frame of `frames` and averaged.
-///
-/// # Errors
-/// [`WandError::Ground`] when fewer than half of the frames (or 3) are posed.
-pub fn set_ground(
-    rig: &Rig,
-    frames: &[Views],
-    ground: &Tool,
-) -> Result<(Rig, GroundReport), WandError> {
-    let tracker = Tracker::new(rig, ground, TrackConfig::default());
-    let poses: Vec<(Pose, f64)> = frames
-        .iter()
-        .filter_map(|views| {
-            let pose = tracker.track_frame(views).outcome.ok()?;
-            Some((pose.world_from_tool, pose.rms_mm))
-        })
-        .collect();
-    let needed = MIN_GROUND_FRAMES.max(frames.len().div_ceil(2));
-    if poses.len() < needed {
-        return Err(WandError::Ground {
-            tool: ground.name.clone(),
-            posed: poses.len(),
-            frames: frames.len(),
-            needed,
-        });
-    }
-    // The average: mean translation, chordal mean rotation (the normalised quaternion sum,
-    // signs aligned to the first).
-    let count = poses.len() as f64;
-    let translation = poses
-        .iter()
-        .fold(nalgebra::Vector3::zeros(), |s, (p, _)| s + p.translation.vector)
-        / count;
-    let first = Quat::from_rotation(&poses[0].0.rotation);
-    let sum = poses.iter().fold([0.0; 4], |s, (p, _)| {
-        let q = Quat::from_rotation(&p.rotation).continuous_with(&first);
-        [s[0] + q.w, s[1] + q.x, s[2] + q.y, s[3] + q.z]
-    });
-    let sum = nalgebra::Quaternion::new(sum[0], sum[1], sum[2], sum[3]);
-    if !(sum.norm().is_finite() && sum.norm() > 0.0) {
-        return Err(WandError::Ground {
-            tool: ground.name.clone(),
-            posed: 0,
-            frames: frames.len(),
-            needed,
-        });
-    }
-    let rotation = nalgebra::UnitQuaternion::from_quaternion(sum);
-    let old_from_ground = crate::geometry::pose_from_parts(translation, rotation);
-    let scatter_mm = (poses
-        .iter()
-        .map(|(p, _)| (p.translation.vector - translation).norm_squared())
-        .sum::<f64>()
-        / count)
-        .sqrt();
-    let registration_rms_mm = poses.iter().map(|(_, r)| r).sum::<f64>() / count;
-    let mut moved = rig.clone();
-    for camera in &mut moved.cameras {
-        camera.camera_from_world = camera.camera_from_world * old_from_ground;
-    }
-    Ok((
-        moved,
-        GroundReport {
-            posed: poses.len(),
-            frames: frames.len(),
-            old_from_ground,
-            scatter_mm,
-            registration_rms_mm,
-        },
-    ))
 }

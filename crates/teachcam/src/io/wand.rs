@@ -76,7 +76,10 @@ mod tests {
             r#"{"name": "wand", "marker_diameter_mm": 14.0, "markers_mm": [0.0, 250.0, 500.0]}"#,
         )
         .unwrap_or_else(|e| panic!("{e}"));
-        let error = read_wand(&path).err().map(|e| e.to_string()).unwrap_or_default();
+        let error = read_wand(&path)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(error.contains("off centre"), "{error}");
     }
 }

@@ -80,7 +80,8 @@ pub fn lframe_tool() -> Tool {
 /// The wand's pose (tool = wand frame, marker k at `k`'s position along tool z) at a time.
 #[must_use]
 pub fn wand_dance(time_s: f64) -> Pose {
-    let wave = |a: f64, hz: f64, phase: f64| a * (std::f64::consts::TAU * hz * time_s + phase).sin();
+    let wave =
+        |a: f64, hz: f64, phase: f64| a * (std::f64::consts::TAU * hz * time_s + phase).sin();
     let middle = Vector3::new(
         wave(70.0, 0.21, 0.3) + wave(20.0, 0.67, 1.2),
         wave(60.0, 0.27, 1.0) + wave(15.0, 0.8, 0.0),

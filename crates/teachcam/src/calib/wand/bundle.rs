@@ -52,9 +52,7 @@ fn retract_wand(pose: &WandPose, step: &DVector<f64>, at: usize) -> WandPose {
     let (e1, e2) = basis(&pose.axis);
     WandPose {
         start: pose.start + Vector3::new(step[at], step[at + 1], step[at + 2]),
-        axis: Unit::new_normalize(
-            pose.axis.into_inner() + e1 * step[at + 3] + e2 * step[at + 4],
-        ),
+        axis: Unit::new_normalize(pose.axis.into_inner() + e1 * step[at + 3] + e2 * step[at + 4]),
     }
 }
 
@@ -87,9 +85,7 @@ fn residuals(
         let d_camera = projection.d_point * point_d_pose(&p);
         let d_world = projection.d_point * rotation.matrix();
         let mut d_wand = SMatrix::<f64, 2, 5>::zeros();
-        d_wand
-            .fixed_view_mut::<2, 3>(0, 0)
-            .copy_from(&d_world);
+        d_wand.fixed_view_mut::<2, 3>(0, 0).copy_from(&d_world);
         d_wand
             .column_mut(3)
             .copy_from(&(d_world * e1 * positions_mm[k]));
@@ -142,8 +138,7 @@ impl LeastSquares for FrameProblem<'_> {
             )?;
             for r in &rs {
                 for axis in 0..2 {
-                    let row: Vec<(usize, f64)> =
-                        (0..5).map(|j| (j, r.d_wand[(axis, j)])).collect();
+                    let row: Vec<(usize, f64)> = (0..5).map(|j| (j, r.d_wand[(axis, j)])).collect();
                     equations.add_row(r.residual[axis], &row);
                 }
             }
@@ -165,7 +160,13 @@ fn frame_cost(
 ) -> Option<f64> {
     let mut cost = 0.0;
     for (c, pixels) in observations {
-        for r in residuals(&params[*c], &camera_from_world[*c], wand, positions_mm, pixels)? {
+        for r in residuals(
+            &params[*c],
+            &camera_from_world[*c],
+            wand,
+            positions_mm,
+            pixels,
+        )? {
             cost += r.residual[0].powi(2) + r.residual[1].powi(2);
         }
     }
@@ -254,11 +255,7 @@ impl<'a> Bundle<'a> {
     }
 
     /// Runs the adjustment from `start` (whose wands are first fitted to its cameras).
-    pub fn solve(
-        &self,
-        start: BundleState,
-        config: &LmConfig,
-    ) -> Option<(BundleState, LmReport)> {
+    pub fn solve(&self, start: BundleState, config: &LmConfig) -> Option<(BundleState, LmReport)> {
         let wands = self.fit_all(&start.camera_from_world, &start.wands);
         let start = BundleState {
             camera_from_world: start.camera_from_world,

@@ -32,7 +32,12 @@ pub(super) fn relative_pose(frames: &[PairFrame], length_mm: f64) -> Option<Pose
         })
         .collect();
     let median = super::median(&errors)?;
-    let mad = super::median(&errors.iter().map(|e| (e - median).abs()).collect::<Vec<_>>())?;
+    let mad = super::median(
+        &errors
+            .iter()
+            .map(|e| (e - median).abs())
+            .collect::<Vec<_>>(),
+    )?;
     let gate = median + SAMPSON_GATE_MADS * 1.4826 * mad;
     let inliers: Vec<usize> = (0..frames.len()).filter(|&i| errors[i] <= gate).collect();
     let e = essential(frames, &inliers)?;
@@ -50,7 +55,11 @@ pub(super) fn relative_pose(frames: &[PairFrame], length_mm: f64) -> Option<Pose
         .collect();
     let scale = super::median(&ratios)?;
     let pose = pose_from_parts(direction * scale, rotation);
-    pose.translation.vector.iter().all(|v| v.is_finite()).then_some(pose)
+    pose.translation
+        .vector
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some(pose)
 }
 
 /// The essential matrix of the chosen frames' correspondences (`y'ᵀ E x = 0`), its singular
@@ -139,8 +148,7 @@ fn decompose(
                 .iter()
                 .flat_map(|&i| frames[i].0.iter().zip(&frames[i].1))
                 .filter(|(x, y)| {
-                    triangulate_pair(&q, &t, x, y)
-                        .is_some_and(|p| p.z > 0.0 && (r * p + t).z > 0.0)
+                    triangulate_pair(&q, &t, x, y).is_some_and(|p| p.z > 0.0 && (r * p + t).z > 0.0)
                 })
                 .count();
             if best.as_ref().is_none_or(|b| in_front > b.0) {
@@ -201,18 +209,14 @@ mod tests {
                 80.0 * (0.7 * t).cos(),
                 1000.0 + 90.0 * (0.5 * t).sin(),
             );
-            let d = Vector3::new((0.4 * t).cos(), (0.9 * t).sin(), 0.3 * (0.2 * t).cos())
-                .normalize();
+            let d =
+                Vector3::new((0.4 * t).cos(), (0.9 * t).sin(), 0.3 * (0.2 * t).cos()).normalize();
             let points = [start, start + d * 160.0, start + d * 500.0];
             let project = |p: nalgebra::Point3<f64>| Point2::new(p.x / p.z, p.y / p.z);
-            frames.push((
-                points.map(project),
-                points.map(|p| project(b_from_a * p)),
-            ));
+            frames.push((points.map(project), points.map(|p| project(b_from_a * p))));
         }
         let found = relative_pose(&frames, 500.0).unwrap_or_else(|| panic!("no pose"));
-        let translation_error =
-            (found.translation.vector - b_from_a.translation.vector).norm();
+        let translation_error = (found.translation.vector - b_from_a.translation.vector).norm();
         let angle = found.rotation.angle_to(&b_from_a.rotation);
         assert!(translation_error < 1e-6, "{translation_error} mm");
         assert!(angle < 1e-9, "{angle} rad");
