@@ -440,3 +440,163 @@ fn robot_files_describe_the_known_arms_and_name_their_mistakes() {
         assert!(e.contains("arm.json") && e.contains(says), "{says}: {e}");
     }
 }
+
+/// A 20 s painter's loop at 30 Hz: the tip circling 60 mm around the work object's origin
+/// while bobbing 10 mm, the brush pointing down and tilting by up to 14°.
+fn painting_loop() -> Vec<teachcam::robot::TcpTarget> {
+    use std::f64::consts::TAU;
+    (0..600)
+        .map(|k| {
+            let t = f64::from(k) / 30.0;
+            let phase = TAU * t / 10.0;
+            let tip = Vector3::new(
+                60.0 * phase.cos(),
+                60.0 * phase.sin(),
+                20.0 + 10.0 * (3.0 * phase).sin(),
+            );
+            let tilt = UnitQuaternion::from_euler_angles(
+                0.25 * (2.0 * phase).sin(),
+                0.2 * (phase + 0.4).cos(),
+                0.6 * phase.sin(),
+            );
+            teachcam::robot::TcpTarget {
+                frame: teachcam::geometry::FrameIndex(k as usize),
+                time_s: t,
+                wobj_from_tcp: pose_from_parts(
+                    tip,
+                    tilt * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI),
+                ),
+            }
+        })
+        .collect()
+}
+
+/// Where each robot paints the loop: the work object in front of it, the brush 150 mm out of
+/// the flange along the flange's normal (ABB and UR: z; KUKA: x, so the TCP's z is FLANGE x).
+fn painting_cell(robot: &Robot) -> teachcam::robot::Cell {
+    let x = match robot.name.as_str() {
+        "irb120" => 350.0,
+        "kr6-r700" => 450.0,
+        "kr6-r900" => 550.0,
+        "ur5e" => 400.0,
+        _ => 600.0,
+    };
+    let along_normal = match robot.maker {
+        Maker::Kuka => pose_from_parts(
+            Vector3::new(150.0, 0.0, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::y_axis(), FRAC_PI_2),
+        ),
+        Maker::Abb | Maker::UniversalRobots => {
+            pose_from_parts(Vector3::new(0.0, 0.0, 150.0), UnitQuaternion::identity())
+        }
+    };
+    teachcam::robot::Cell {
+        base_from_wobj: pose_from_parts(Vector3::new(x, 0.0, 120.0), UnitQuaternion::identity()),
+        flange_from_tcp: along_normal,
+    }
+}
+
+/// The contract's law on `--joints-out`'s table, for every robot: the joints read back from
+/// the CSV text (degrees, 6 decimals: 1.7e-8 rad, about 2e-5 mm at 1.2 m) through the
+/// independent forward kinematics reproduce every target to 0.01 mm and 0.001°, in one arm
+/// configuration, with the maker's configuration columns.
+#[test]
+fn joints_table_reproduces_the_path_through_the_independent_kinematics() {
+    use teachcam::robot::check::{CheckConfig, check_path};
+    use teachcam::robot::table::joints_csv;
+    let targets = painting_loop();
+    for robot in all_robots() {
+        let cell = painting_cell(&robot);
+        let start = std::time::Instant::now();
+        let report = check_path(&robot, &cell, &targets, &CheckConfig::default());
+        let elapsed = start.elapsed();
+        assert!(
+            report.passes(),
+            "{}: {:?}",
+            robot.name,
+            report.failing().next().map(|f| &f.issues)
+        );
+        let csv = joints_csv(&report);
+        let mut lines = csv.lines();
+        let header = lines.next().unwrap();
+        let expected_tail = match robot.maker {
+            Maker::Abb => "time_s,cf1,cf4,cf6,cfx,ok",
+            Maker::Kuka => "time_s,s,t,ok",
+            Maker::UniversalRobots => "time_s,configuration,ok",
+        };
+        assert_eq!(
+            header,
+            format!("frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,{expected_tail}")
+        );
+        let mut worst = (0.0f64, 0.0f64);
+        let mut configurations = std::collections::BTreeSet::new();
+        for (line, target) in lines.zip(&targets) {
+            let fields: Vec<&str> = line.split(',').collect();
+            let degrees: [f64; 6] = std::array::from_fn(|i| fields[i + 1].parse().unwrap());
+            let joints = Joints::from_degrees(degrees);
+            let left = reference_forward(&robot, &joints) * cell.flange_from_tcp;
+            let right = cell.base_from_wobj * target.wobj_from_tcp;
+            let (dp, da) = distance(&left, &right);
+            worst = (worst.0.max(dp), worst.1.max(da));
+            configurations.insert(fields[8..fields.len() - 1].join(","));
+        }
+        eprintln!(
+            "{}: {} frames checked in {:.1} ms, joints table vs independent FK worst {:.2e} mm, {:.2e} deg",
+            robot.name,
+            targets.len(),
+            elapsed.as_secs_f64() * 1e3,
+            worst.0,
+            worst.1.to_degrees()
+        );
+        assert!(
+            worst.0 <= 0.01 && worst.1.to_degrees() <= 0.001,
+            "{}: {worst:?}",
+            robot.name
+        );
+        // KUKA's Turn and ABB's quadrants may change along the loop; UR's branch may not.
+        if robot.maker == Maker::UniversalRobots {
+            assert_eq!(configurations.len(), 1, "{}: {configurations:?}", robot.name);
+        }
+    }
+}
+
+/// A UR's base sweeping 360° through ±180°: the check follows it continuously (no 360° jump,
+/// which no axis could make in a frame) and keeps it inside ±360°; the IRB 120's axis 6 the
+/// same through its ±400°.
+#[test]
+fn turning_axes_are_followed_through_half_turns() {
+    use teachcam::robot::check::{CheckConfig, check_path};
+    for (robot, axis) in [(Robot::ur5e(), 0), (Robot::irb120(), 5)] {
+        let targets: Vec<teachcam::robot::TcpTarget> = (0..301)
+            .map(|k| {
+                let mut degrees = [10.0, -80.0, 70.0, -60.0, 50.0, 40.0];
+                if robot.maker == Maker::Abb {
+                    degrees = [10.0, 20.0, -10.0, 30.0, 50.0, 0.0];
+                }
+                degrees[axis] = -170.0 + 1.2 * f64::from(k);
+                teachcam::robot::TcpTarget {
+                    frame: teachcam::geometry::FrameIndex(k as usize),
+                    time_s: f64::from(k) / 30.0,
+                    wobj_from_tcp: reference_forward(&robot, &Joints::from_degrees(degrees)),
+                }
+            })
+            .collect();
+        let report = check_path(
+            &robot,
+            &teachcam::robot::Cell::default(),
+            &targets,
+            &CheckConfig::default(),
+        );
+        assert!(report.passes(), "{}: {:?}", robot.name, report.failing().next());
+        let angles: Vec<f64> = report
+            .frames
+            .iter()
+            .map(|f| f.joints.unwrap().0[axis].to_degrees())
+            .collect();
+        for pair in angles.windows(2) {
+            assert!((pair[1] - pair[0] - 1.2).abs() < 1e-6, "{}: {pair:?}", robot.name);
+        }
+        assert!(angles.iter().all(|a| a.abs() <= 400.0));
+        assert!((angles[300] - angles[0] - 360.0).abs() < 1e-6);
+    }
+}
