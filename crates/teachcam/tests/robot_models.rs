@@ -555,7 +555,12 @@ fn joints_table_reproduces_the_path_through_the_independent_kinematics() {
         );
         // KUKA's Turn and ABB's quadrants may change along the loop; UR's branch may not.
         if robot.maker == Maker::UniversalRobots {
-            assert_eq!(configurations.len(), 1, "{}: {configurations:?}", robot.name);
+            assert_eq!(
+                configurations.len(),
+                1,
+                "{}: {configurations:?}",
+                robot.name
+            );
         }
     }
 }
@@ -587,16 +592,199 @@ fn turning_axes_are_followed_through_half_turns() {
             &targets,
             &CheckConfig::default(),
         );
-        assert!(report.passes(), "{}: {:?}", robot.name, report.failing().next());
+        assert!(
+            report.passes(),
+            "{}: {:?}",
+            robot.name,
+            report.failing().next()
+        );
         let angles: Vec<f64> = report
             .frames
             .iter()
             .map(|f| f.joints.unwrap().0[axis].to_degrees())
             .collect();
         for pair in angles.windows(2) {
-            assert!((pair[1] - pair[0] - 1.2).abs() < 1e-6, "{}: {pair:?}", robot.name);
+            assert!(
+                (pair[1] - pair[0] - 1.2).abs() < 1e-6,
+                "{}: {pair:?}",
+                robot.name
+            );
         }
         assert!(angles.iter().all(|a| a.abs() <= 400.0));
         assert!((angles[300] - angles[0] - 360.0).abs() < 1e-6);
+    }
+}
+
+/// The programs of the painting loop on a robot of each maker.
+fn loop_program(robot: &Robot) -> teachcam::robot::program::Program {
+    use teachcam::robot::check::{CheckConfig, check_path};
+    use teachcam::robot::program::build_program;
+    use teachcam::robot::simplify::SimplifyConfig;
+    let cell = painting_cell(robot);
+    let report = check_path(robot, &cell, &painting_loop(), &CheckConfig::default());
+    assert!(report.passes(), "{}", robot.name);
+    build_program("loop_1", &cell, &report, &SimplifyConfig::default())
+}
+
+/// The calls `name(args)` of a URScript line, with their argument counts (commas at depth
+/// zero inside the call's parentheses).
+fn calls(line: &str) -> Vec<(String, usize)> {
+    let bytes: Vec<char> = line.chars().collect();
+    let mut out = Vec::new();
+    for (i, c) in bytes.iter().enumerate() {
+        if *c != '(' {
+            continue;
+        }
+        let mut j = i;
+        while j > 0 && (bytes[j - 1].is_ascii_alphanumeric() || bytes[j - 1] == '_') {
+            j -= 1;
+        }
+        let name: String = bytes[j..i].iter().collect();
+        if name.is_empty() {
+            continue;
+        }
+        let (mut depth, mut args, mut empty) = (0i32, 1usize, true);
+        for c in &bytes[i + 1..] {
+            match c {
+                '(' | '[' => depth += 1,
+                ')' | ']' if depth == 0 => break,
+                ')' | ']' => depth -= 1,
+                ',' if depth == 0 => args += 1,
+                c if !c.is_whitespace() => empty = false,
+                _ => {}
+            }
+        }
+        out.push((name, if empty { 0 } else { args }));
+    }
+    out
+}
+
+/// Every function a URScript program calls exists in the URScript manual with that arity:
+/// the writer's table against the manual's signatures (written here from the e-Series
+/// manual), every generated call against the table; the first move is a `movej` whose
+/// joints (radians) reach the first target through the independent forward kinematics.
+#[test]
+fn urscript_calls_exist_with_the_manuals_arity() {
+    use teachcam::robot::urscript::{URSCRIPT_FUNCTIONS, UrScriptConfig, urscript_program};
+    // URScript manual (e-Series, 5.x): movej(q, a=1.4, v=1.05, t=0, r=0),
+    // movel(pose, a=1.2, v=0.25, t=0, r=0), pose_trans(p_from, p_from_to),
+    // set_payload(m, cog), set_tcp(pose).
+    let manual: [(&str, usize, usize); 5] = [
+        ("movej", 1, 5),
+        ("movel", 1, 5),
+        ("pose_trans", 2, 2),
+        ("set_payload", 1, 2),
+        ("set_tcp", 1, 1),
+    ];
+    assert_eq!(URSCRIPT_FUNCTIONS, manual);
+    for robot in [Robot::ur5e(), Robot::ur10e()] {
+        let program = loop_program(&robot);
+        let script = urscript_program(&program, &UrScriptConfig::default());
+        let mut seen = std::collections::BTreeSet::new();
+        for line in script.lines() {
+            let defining = line.trim_start().starts_with("def ");
+            for (name, args) in calls(line) {
+                if name == program.name {
+                    assert!(args == 0 && (defining || line == "loop_1()"), "{line}");
+                    continue;
+                }
+                let Some(&(_, min, max)) = manual.iter().find(|(n, _, _)| *n == name) else {
+                    panic!(
+                        "{}: '{name}' is not a URScript function: {line}",
+                        robot.name
+                    );
+                };
+                assert!((min..=max).contains(&args), "{name} with {args}: {line}");
+                seen.insert(name);
+            }
+        }
+        assert_eq!(seen.len(), 5, "{seen:?}");
+        let first = script.lines().find(|l| l.contains("movej(")).unwrap();
+        let inner = first.split('[').nth(1).unwrap().split(']').next().unwrap();
+        let q: Vec<f64> = inner
+            .split(',')
+            .map(|v| v.trim().parse().unwrap())
+            .collect();
+        let joints = Joints(q.try_into().unwrap());
+        let cell = painting_cell(&robot);
+        let reached = reference_forward(&robot, &joints) * cell.flange_from_tcp;
+        let wanted = cell.base_from_wobj * program.moves[0].target.wobj_from_tcp;
+        let (dp, da) = distance(&reached, &wanted);
+        // Six decimals of a radian: 1e-6 rad on arms about a metre long, 0.001 mm.
+        assert!(dp < 0.005 && da < 1e-5, "{}: {dp} mm {da} rad", robot.name);
+    }
+}
+
+/// KRL's structure, checked by hand (no KRL parser is packaged here): `DEF name( )` …
+/// `END` once, `DEFDAT name` … `ENDDAT` once, every declaration in the `.dat`, the `.src`
+/// executable only; the first motion a `PTP` to a point carrying `S` and `T`; every point a
+/// full E6POS (`X Y Z A B C S T E1..E6`); every point moved to declared; S and T those of the
+/// joints the check chose.
+#[test]
+fn krl_programs_have_kukas_structure() {
+    use teachcam::robot::krl::krl_program;
+    for robot in [Robot::kr6_r700(), Robot::kr6_r900()] {
+        let program = loop_program(&robot);
+        let krl = krl_program(&program);
+        let src: Vec<&str> = krl.src.lines().map(str::trim).collect();
+        let dat: Vec<&str> = krl.dat.lines().map(str::trim).collect();
+        let body: Vec<&str> = src
+            .iter()
+            .copied()
+            .filter(|l| !l.starts_with('&') && !l.starts_with(';') && !l.is_empty())
+            .collect();
+        assert_eq!(body.first(), Some(&"DEF loop_1( )"));
+        assert_eq!(body.last(), Some(&"END"));
+        assert_eq!(body.iter().filter(|l| l.starts_with("DEF ")).count(), 1);
+        assert_eq!(body.iter().filter(|l| **l == "END").count(), 1);
+        assert!(body.iter().all(|l| !l.starts_with("DECL")));
+        for needed in ["$TOOL=", "$BASE=", "$LOAD.M=", "$LOAD.CM="] {
+            let at = body.iter().position(|l| l.starts_with(needed)).unwrap();
+            let first_motion = body.iter().position(|l| l.starts_with("PTP ")).unwrap();
+            assert!(at < first_motion, "{needed} after the first motion");
+        }
+        let motions: Vec<&str> = body
+            .iter()
+            .copied()
+            .filter(|l| l.starts_with("PTP ") || l.starts_with("LIN "))
+            .collect();
+        assert!(motions[0].starts_with("PTP XP1"));
+        assert!(motions[1..].iter().all(|l| l.starts_with("LIN ")));
+        assert_eq!(motions.len(), program.moves.len());
+        assert_eq!(dat.iter().filter(|l| l.starts_with("DEFDAT ")).count(), 1);
+        assert_eq!(dat.iter().filter(|l| **l == "ENDDAT").count(), 1);
+        assert_eq!(dat.last(), Some(&"ENDDAT"));
+        let fields = [
+            "X", "Y", "Z", "A", "B", "C", "S", "T", "E1", "E2", "E3", "E4", "E5", "E6",
+        ];
+        let mut points = std::collections::BTreeMap::new();
+        for line in dat.iter().filter(|l| l.starts_with("DECL E6POS ")) {
+            let (name, value) = line["DECL E6POS ".len()..].split_once('=').unwrap();
+            let inner = value.strip_prefix('{').unwrap().strip_suffix('}').unwrap();
+            let pairs: Vec<(&str, f64)> = inner
+                .split(',')
+                .map(|f| {
+                    let (k, v) = f.split_once(' ').unwrap();
+                    (k, v.parse::<f64>().unwrap())
+                })
+                .collect();
+            let keys: Vec<&str> = pairs.iter().map(|p| p.0).collect();
+            assert_eq!(keys, fields, "{line}");
+            points.insert(name.to_string(), pairs);
+        }
+        for m in &motions {
+            let name = m.split_whitespace().nth(1).unwrap();
+            assert!(points.contains_key(name), "{name} not declared");
+        }
+        let first = &points["XP1"];
+        let move0 = &program.moves[0];
+        let st = status_turn(
+            &robot,
+            &move0.joints.unwrap(),
+            &move0.configuration.unwrap(),
+        );
+        assert_eq!(first[6].1, f64::from(st.status));
+        assert_eq!(first[7].1, f64::from(st.turn));
+        assert!(st.status < 8 && st.turn < 64);
     }
 }

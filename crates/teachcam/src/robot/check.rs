@@ -455,11 +455,11 @@ fn step_cost(
     config: &CheckConfig,
 ) -> f64 {
     let mut ratio: f64 = 0.0;
-    for axis in 0..6 {
+    for (axis, turns) in turning.iter().enumerate() {
         // A non-increasing time (reported by the check) costs as a step in a nanosecond.
         let max_step = robot.limits[axis].max_speed * config.speed_fraction * dt.max(1e-9);
         let step = to.joints.0[axis] - from.joints.0[axis];
-        let step = if turning[axis] { wrap(step) } else { step };
+        let step = if *turns { wrap(step) } else { step };
         ratio = ratio.max(step.abs() / max_step);
     }
     let flip = if same_configuration(&from.configuration, &to.configuration) {
@@ -558,12 +558,16 @@ fn turning_axes(robot: &Robot) -> [bool; 6] {
 
 /// The candidates of one target: every branch, with the copies of the axes that do not turn
 /// fully ([`inverse_within_limits`] on those axes), the turning axes wrapped.
-fn path_candidates(robot: &Robot, turning: &[bool; 6], base_from_flange: &crate::geometry::Pose) -> Vec<IkSolution> {
+fn path_candidates(
+    robot: &Robot,
+    turning: &[bool; 6],
+    base_from_flange: &crate::geometry::Pose,
+) -> Vec<IkSolution> {
     let mut relaxed = robot.clone();
-    for axis in 0..6 {
-        if turning[axis] {
-            relaxed.limits[axis].min = -std::f64::consts::PI;
-            relaxed.limits[axis].max = std::f64::consts::PI;
+    for (limit, turns) in relaxed.limits.iter_mut().zip(turning) {
+        if *turns {
+            limit.min = -std::f64::consts::PI;
+            limit.max = std::f64::consts::PI;
         }
     }
     inverse_within_limits(&relaxed, base_from_flange)
@@ -603,7 +607,10 @@ fn unwrap_turning_axes(
             let middle = 0.5 * (limit.min + limit.max);
             let score = |turns: i32| {
                 let shift = f64::from(turns) * TAU;
-                let inside = angles.iter().filter(|a| limit.contains(**a + shift)).count();
+                let inside = angles
+                    .iter()
+                    .filter(|a| limit.contains(**a + shift))
+                    .count();
                 (inside, -(angles[0] + shift - middle).abs())
             };
             let turns = (-3..=3)
