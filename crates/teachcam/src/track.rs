@@ -15,9 +15,12 @@
 //! Every frame gets a [`Status`] with its reasons ([`Flag`]): `ok`; `degraded` (a view
 //! dropped, fewer markers than the tool has); `outlier` (a pose whose registration residual
 //! is beyond the gate: written, flagged); `lost` ([`Lost`], no pose). The gates are data,
-//! measured from the recording ([`gates`]). Frames are independent, so they run in parallel.
+//! measured from the recording ([`gates`]), and so is a mirror the work object makes: points
+//! behind it are reflections, left out before identification ([`reflections`]). Frames are
+//! independent, so they run in parallel.
 
 pub mod gates;
+pub mod reflections;
 pub mod uncertainty;
 
 use std::collections::BTreeMap;
@@ -49,6 +52,10 @@ pub struct TrackConfig {
     /// `outlier`, beyond [`OUTLIER_LIMIT`] times it a gap. Default 0.5: a correct fit on the
     /// paper's rig leaves ≈ 0.03 mm, a wrong label millimetres.
     pub max_registration_rms_mm: f64,
+    /// A mirror the recording shows: 3-D points behind it are reflections, left out before
+    /// identification. Default none: a mirror is learned from the recording
+    /// ([`reflections::learn_mirror`]), never assumed.
+    pub mirror: Option<reflections::MirrorPlane>,
 }
 
 /// How many times the registration gate a pose may leave and still be written (as an
@@ -66,6 +73,7 @@ impl Default for TrackConfig {
             triangulate: TriangulateConfig::default(),
             identify: IdentifyConfig::default(),
             max_registration_rms_mm: 0.5,
+            mirror: None,
         }
     }
 }
@@ -167,6 +175,11 @@ pub struct FrameTrack {
     pub flags: Vec<Flag>,
     /// Combinations of ambiguous pairings tried (1 when correspondence was unique).
     pub combinations: usize,
+    /// Where a rival labelling fitted the tool as well as the chosen one (the frame is then
+    /// lost as ambiguous), the rival's markers, world frame: the evidence a mirror leaves.
+    pub rival_in_world: Option<BTreeMap<MarkerId, Point3>>,
+    /// Points left out as reflections behind the mirror ([`TrackConfig::mirror`]).
+    pub reflections: usize,
 }
 
 impl FrameTrack {
@@ -228,6 +241,19 @@ struct Candidate {
     points: Vec<FramePoint>,
     labels: BTreeMap<MarkerId, usize>,
     outcome: Result<ToolPose, Lost>,
+    /// The markers of an equally good rival labelling.
+    rival: Option<BTreeMap<MarkerId, Point3>>,
+    /// Points left out as reflections.
+    reflections: usize,
+}
+
+impl Candidate {
+    fn markers_in_world(&self) -> BTreeMap<MarkerId, Point3> {
+        self.labels
+            .iter()
+            .map(|(m, p)| (*m, self.points[*p].point.position))
+            .collect()
+    }
 }
 
 impl Candidate {
@@ -333,6 +359,15 @@ impl<'a> Tracker<'a> {
     }
 
     fn candidate(&self, points: Vec<FramePoint>) -> Candidate {
+        let before = points.len();
+        let points: Vec<FramePoint> = match &self.config.mirror {
+            Some(mirror) => points
+                .into_iter()
+                .filter(|p| !mirror.is_behind(&p.point.position))
+                .collect(),
+            None => points,
+        };
+        let reflections = before - points.len();
         let positions: Vec<Point3> = points.iter().map(|p| p.point.position).collect();
         let identification = identify(
             &self.tool.markers_in_tool,
@@ -340,10 +375,12 @@ impl<'a> Tracker<'a> {
             &self.config.identify,
         );
         let mut outcome = self.pose(&identification.labels, &positions);
+        let mut rival_in_world = None;
         if let (Ok(pose), Some(rival)) = (&outcome, &identification.rival) {
             let rival_outcome = self.pose(rival, &positions);
             let rival_mm = rival_outcome.as_ref().map_or(f64::INFINITY, |p| p.rms_mm);
             if self.too_close(pose.rms_mm, rival_mm) {
+                rival_in_world = Some(rival.iter().map(|(m, p)| (*m, positions[*p])).collect());
                 outcome = Err(Lost::Ambiguous {
                     markers: pose.markers,
                     best_mm: pose.rms_mm,
@@ -355,6 +392,8 @@ impl<'a> Tracker<'a> {
             points,
             labels: identification.labels,
             outcome,
+            rival: rival_in_world,
+            reflections,
         }
     }
 
@@ -387,9 +426,12 @@ impl<'a> Tracker<'a> {
                 labels: BTreeMap::new(),
                 flags,
                 combinations,
+                rival_in_world: None,
+                reflections: 0,
             };
         };
         let mut outcome = best.outcome.clone();
+        let mut rival_in_world = best.rival.clone();
         if let Ok(pose) = &best.outcome {
             let same_markers = |c: &Candidate| -> bool {
                 best.labels.iter().all(|(m, p)| {
@@ -405,6 +447,7 @@ impl<'a> Tracker<'a> {
             if let Some(rival) = rival {
                 let rival_mm = rival.rank().1;
                 if self.too_close(pose.rms_mm, rival_mm) {
+                    rival_in_world = Some(rival.markers_in_world());
                     outcome = Err(Lost::Ambiguous {
                         markers: pose.markers,
                         best_mm: pose.rms_mm,
@@ -438,6 +481,8 @@ impl<'a> Tracker<'a> {
             labels: best.labels,
             flags,
             combinations,
+            rival_in_world,
+            reflections: best.reflections,
         }
     }
 
@@ -465,26 +510,25 @@ impl<'a> Tracker<'a> {
     #[must_use]
     pub fn track_all(&self, frames: &[Views], fps: f64) -> (Trajectory, Vec<FrameTrack>) {
         let tracks: Vec<FrameTrack> = frames.par_iter().map(|v| self.track_frame(v)).collect();
-        (trajectory_from_tracks(&tracks, fps), tracks)
+        let times: Vec<f64> = (0..tracks.len()).map(|i| i as f64 / fps).collect();
+        (trajectory_from_tracks(&tracks, &times), tracks)
     }
 }
 
-/// The trajectory of tracked frames, frame `i` at time `i / fps`, each sample with its
-/// frame's status.
+/// The trajectory of tracked frames, frame `i` at `times_s[i]` (its exposure time; a frame
+/// without a time is left out), each sample with its frame's status.
 #[must_use]
-pub fn trajectory_from_tracks(tracks: &[FrameTrack], fps: f64) -> Trajectory {
+pub fn trajectory_from_tracks(tracks: &[FrameTrack], times_s: &[f64]) -> Trajectory {
     let samples = tracks
         .iter()
+        .zip(times_s)
         .enumerate()
-        .map(|(i, t)| {
-            let time_s = i as f64 / fps;
-            match &t.outcome {
-                Ok(pose) => Sample {
-                    status: t.status(),
-                    ..Sample::measured(FrameIndex(i), time_s, *pose)
-                },
-                Err(_) => Sample::gap(FrameIndex(i), time_s),
-            }
+        .map(|(i, (t, &time_s))| match &t.outcome {
+            Ok(pose) => Sample {
+                status: t.status(),
+                ..Sample::measured(FrameIndex(i), time_s, *pose)
+            },
+            Err(_) => Sample::gap(FrameIndex(i), time_s),
         })
         .collect();
     Trajectory { samples }

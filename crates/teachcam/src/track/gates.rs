@@ -26,6 +26,10 @@
 //! distances and a missed one loses a label. A gate with fewer than [`MIN_SAMPLES`] values
 //! keeps the library's default. Every gate can be overridden ([`GateOverrides`]); an overridden
 //! gate is also used in the first pass.
+//!
+//! The first pass also looks for a mirror (a shiny work object): frames where the tool's
+//! rival labelling is its pure reflection through one plane ([`crate::track::reflections`]).
+//! Its marker noise is the first pass's distance tolerance, the largest identification takes.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -35,6 +39,7 @@ use crate::correspond::{CorrespondConfig, EpipolarGeometry, Views};
 use crate::geometry::CameraId;
 use crate::identify::IdentifyConfig;
 use crate::tool::Tool;
+use crate::track::reflections::{MirrorPlane, learn_mirror};
 use crate::track::{FrameTrack, TrackConfig, Tracker};
 use crate::triangulate::TriangulateConfig;
 
@@ -105,6 +110,10 @@ pub struct Gates {
     pub sampled_frames: usize,
     /// Frames of the sample tracked confidently.
     pub confident_frames: usize,
+    /// The mirror the sample shows, if any: points behind it are reflections.
+    pub mirror: Option<MirrorPlane>,
+    /// Why there is a mirror or none, for people.
+    pub mirror_reason: String,
 }
 
 /// Gates the user fixed; `None` is measured.
@@ -429,7 +438,9 @@ pub fn measure_gates(
         max_registration_rms_mm: overrides
             .max_registration_rms_mm
             .unwrap_or(REGISTRATION.ceiling.0),
+        mirror: None,
     };
+    let mirror_noise_mm = first_pass.identify.distance_tolerance_mm;
     let tracker = Tracker::new(rig, tool, first_pass);
     let tracks: Vec<FrameTrack> = {
         use rayon::prelude::*;
@@ -491,6 +502,16 @@ pub fn measure_gates(
     };
     let max_registration_rms_mm =
         registration_gate(&evidence.registration_mm, overrides.max_registration_rms_mm);
+    let (mirror, mirror_reason) = match learn_mirror(rig, &tracks, mirror_noise_mm) {
+        Ok(m) => {
+            let reason = format!(
+                "n = ({:.3}, {:.3}, {:.3}), offset {:.1} mm: the tool's mirror image in {} frames, {:.2} mm RMS from a pure reflection; points more than {:.2} mm behind it are left out",
+                m.normal.x, m.normal.y, m.normal.z, m.offset_mm, m.frames, m.rms_mm, m.margin_mm
+            );
+            (Some(m), reason)
+        }
+        Err(why) => (None, format!("none: {why}")),
+    };
     Gates {
         min_roundness,
         epipolar_tolerance_px,
@@ -502,6 +523,8 @@ pub fn measure_gates(
         typical_registration_rms_mm: median(&evidence.registration_mm),
         sampled_frames: frames.len(),
         confident_frames: evidence.confident,
+        mirror,
+        mirror_reason,
     }
 }
 
@@ -533,6 +556,8 @@ impl Gates {
             typical_registration_rms_mm: None,
             sampled_frames: 0,
             confident_frames: 0,
+            mirror: None,
+            mirror_reason: "none: nothing measured".into(),
         }
     }
 
@@ -557,6 +582,7 @@ impl Gates {
                 distance_tolerance_mm: self.distance_tolerance_mm.value,
             },
             max_registration_rms_mm: self.max_registration_rms_mm.value,
+            mirror: self.mirror.clone(),
         }
     }
 }
@@ -582,7 +608,8 @@ impl fmt::Display for Gates {
         }
         line("triangulation residual", &self.max_residual_px, "px")?;
         line("distance tolerance", &self.distance_tolerance_mm, "mm")?;
-        line("registration residual", &self.max_registration_rms_mm, "mm")
+        line("registration residual", &self.max_registration_rms_mm, "mm")?;
+        writeln!(f, "  {:<24} {}", "mirror", self.mirror_reason)
     }
 }
 
