@@ -51,7 +51,7 @@ fn in_camera0_frame(rig: &Rig) -> Rig {
     let world_from_camera0 = rig.cameras[0].camera_from_world.inverse();
     let mut moved = rig.clone();
     for camera in &mut moved.cameras {
-        camera.camera_from_world = camera.camera_from_world * world_from_camera0;
+        camera.camera_from_world *= world_from_camera0;
     }
     moved
 }
