@@ -173,7 +173,7 @@ fn bad_inputs_are_refused_with_the_cause() {
     std::fs::rename(rec.join("cam2"), rec.join("side")).unwrap();
     let out = track(rec, &[]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("rig camera cam2 has no sub-folder"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("rig camera cam2 is not in the source"));
     std::fs::rename(rec.join("side"), rec.join("cam2")).unwrap();
 
     // Frames where nothing is visible stay as explicit gaps.

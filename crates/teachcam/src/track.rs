@@ -599,26 +599,25 @@ impl<'a> Tracker<'a> {
     #[must_use]
     pub fn track_all(&self, frames: &[Views], fps: f64) -> (Trajectory, Vec<FrameTrack>) {
         let tracks: Vec<FrameTrack> = frames.par_iter().map(|v| self.track_frame(v)).collect();
-        (trajectory_from_tracks(&tracks, fps), tracks)
+        let times: Vec<f64> = (0..tracks.len()).map(|i| i as f64 / fps).collect();
+        (trajectory_from_tracks(&tracks, &times), tracks)
     }
 }
 
-/// The trajectory of tracked frames, frame `i` at time `i / fps`, each sample with its
-/// frame's status.
+/// The trajectory of tracked frames, frame `i` at `times_s[i]` (its exposure time; a frame
+/// without a time is left out), each sample with its frame's status.
 #[must_use]
-pub fn trajectory_from_tracks(tracks: &[FrameTrack], fps: f64) -> Trajectory {
+pub fn trajectory_from_tracks(tracks: &[FrameTrack], times_s: &[f64]) -> Trajectory {
     let samples = tracks
         .iter()
+        .zip(times_s)
         .enumerate()
-        .map(|(i, t)| {
-            let time_s = i as f64 / fps;
-            match &t.outcome {
-                Ok(pose) => Sample {
-                    status: t.status(),
-                    ..Sample::measured(FrameIndex(i), time_s, *pose)
-                },
-                Err(_) => Sample::gap(FrameIndex(i), time_s),
-            }
+        .map(|(i, (t, &time_s))| match &t.outcome {
+            Ok(pose) => Sample {
+                status: t.status(),
+                ..Sample::measured(FrameIndex(i), time_s, *pose)
+            },
+            Err(_) => Sample::gap(FrameIndex(i), time_s),
         })
         .collect();
     Trajectory { samples }

@@ -3,12 +3,17 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use std::collections::BTreeMap;
+
 use anyhow::Context;
-use rayon::prelude::*;
 use teachcam::camera::Rig;
-use teachcam::detect::{Blob, CenterMethod, DetectConfig, Threshold, detect};
-use teachcam::io::recording::{GrayFrame, Recording, open_recording, read_frame};
+use teachcam::detect::{Blob, CenterMethod, DetectConfig, Threshold};
+use teachcam::geometry::CameraId;
 use teachcam::io::{Output, check_outputs, rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::pipeline::{CameraSetup, DetectStream, DetectedSet};
+use teachcam::source::folder::FolderSource;
+use teachcam::source::{FrameSource, SourceCamera};
+use teachcam::track::gates::sample_frames;
 
 use crate::Rejected;
 use crate::progress::Progress;
@@ -22,7 +27,7 @@ use crate::progress::Progress;
 /// with 2 px between their edges, and left out otherwise. Frames run in parallel.
 ///
 /// Output columns: `camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak`
-/// (camera = the sub-folder's name, frame = 0-based index, centre in OpenCV pixels, radius of
+/// (camera = the sub-folder's or video's name, frame = 0-based index, centre in OpenCV pixels, radius of
 /// the equal-flux disc, predicted centre noise per axis).
 ///
 /// With `--rig` and a marker size (`--tool` or `--marker-diameter`), the size limits follow from
@@ -32,7 +37,7 @@ use crate::progress::Progress;
 /// Example: `teachcam detect rec -o detections.csv --rig rec/rig.json --tool rec/tool.json`
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Recording folder: one sub-folder of PNG frames per camera.
+    /// Recording folder: one sub-folder of PNG frames or one video file per camera.
     pub recording: PathBuf,
     /// Output CSV file (written whole or not at all).
     #[arg(short, long)]
@@ -84,23 +89,12 @@ pub struct DetectOptions {
     pub shot_noise: f64,
 }
 
-/// The blobs of one frame of one camera.
-#[derive(Debug)]
-pub struct FrameBlobs {
-    /// Camera (sub-folder) name.
-    pub camera: String,
-    /// 0-based frame index.
-    pub frame: usize,
-    /// The blobs, in raster order.
-    pub blobs: Vec<Blob>,
-}
-
-/// The detector configuration of each camera of the recording, in the recording's order.
+/// Every camera of the recording, in the recording's order, with its detector configuration.
 ///
 /// # Errors
 /// Rejected data when a file cannot be read or the rig lacks a camera of the recording; a
 /// usage error when a number is out of range.
-pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Vec<DetectConfig>> {
+pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result<Vec<CameraSetup>> {
     if !(args.min_roundness.is_finite() && (0.0..=1.0).contains(&args.min_roundness)) {
         return Err(anyhow::anyhow!(
             "--min-roundness must be within 0..1, got {}",
@@ -135,8 +129,7 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
         .as_deref()
         .map(|path| read_rig(path).rejected())
         .transpose()?;
-    recording
-        .cameras
+    cameras
         .iter()
         .map(|frames| {
             let mut cfg = match (&rig, diameter_mm) {
@@ -169,66 +162,104 @@ pub fn configs(args: &DetectOptions, recording: &Recording) -> anyhow::Result<Ve
             if let Some(a) = args.max_area {
                 cfg.max_area_px = a;
             }
-            Ok(cfg)
+            Ok(CameraSetup {
+                name: frames.name.clone(),
+                detect: cfg,
+                size: None,
+            })
         })
         .collect()
 }
 
-/// Detects the blobs of every frame of every camera, frames in parallel, in camera then frame
-/// order; `configs[i]` is the configuration of `recording.cameras[i]`. Shows a progress bar on a
-/// terminal.
+/// A recording folder's frames detected: every set (one instant: each camera's frame, its
+/// time and blobs), the cameras in the order of each set's entries, and the rate.
+#[derive(Debug)]
+pub struct DetectedRecording {
+    /// The detected cameras, in the order of [`DetectedSet::cameras`].
+    pub cameras: Vec<String>,
+    /// Frames per second (`--fps`, else recording.json, else the videos', else 30).
+    pub fps: f64,
+    /// The sets, in order.
+    pub sets: Vec<DetectedSet>,
+}
+
+impl DetectedRecording {
+    /// Each set's blobs by rig camera id (cameras the rig lacks are left out).
+    #[must_use]
+    pub fn blobs_by_camera(&self, rig: &Rig) -> Vec<BTreeMap<CameraId, Vec<Blob>>> {
+        let ids: Vec<Option<CameraId>> = self.cameras.iter().map(|c| rig.id_of(c)).collect();
+        self.sets
+            .iter()
+            .map(|set| {
+                ids.iter()
+                    .zip(&set.cameras)
+                    .filter_map(|(id, c)| Some(((*id)?, c.as_ref()?.blobs.clone())))
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// Which frames of a recording to detect.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Frames {
+    /// Every frame.
+    All,
+    /// At most this many, spread evenly over the recording (its first ones when its length is
+    /// not known before decoding).
+    Sample(usize),
+}
+
+/// Detects a recording folder's frames, PNG sub-folders and video files alike (CONTRACT,
+/// "Recording"), with each frame's time from `timestamps.csv` where it lies beside them.
+/// `cameras` chooses, from the source's cameras, which to detect and how (each frame's size is
+/// checked against its setup's, or against the camera's first frame). Frames decode and detect
+/// in parallel; a progress bar shows on a terminal.
 ///
 /// # Errors
-/// Rejected data naming the camera, frame and file of the first frame that cannot be read or
-/// searched; an internal error when `configs` does not have one entry per camera.
-pub fn detect_recording(
-    recording: &Recording,
-    configs: &[DetectConfig],
-) -> anyhow::Result<Vec<FrameBlobs>> {
-    anyhow::ensure!(
-        configs.len() == recording.cameras.len(),
-        "internal: {} detector configurations for {} cameras",
-        configs.len(),
-        recording.cameras.len()
-    );
-    let jobs: Vec<(usize, usize)> = recording
-        .cameras
-        .iter()
-        .enumerate()
-        .flat_map(|(c, cam)| (0..cam.frames.len()).map(move |f| (c, f)))
-        .collect();
-    let progress = Progress::new("detect", jobs.len() as u64);
-    let frames = jobs
-        .par_iter()
-        .map(|&(c, f)| {
-            let camera = &recording.cameras[c];
-            let path = &camera.frames[f];
-            let image = read_frame(path, None)
-                .with_context(|| format!("camera {}, frame {f}", camera.name))
-                .rejected()?;
-            let blobs = match &image {
-                GrayFrame::Eight(i) => detect(i, &configs[c]),
-                GrayFrame::Sixteen(i) => detect(i, &configs[c]),
-            }
-            .with_context(|| format!("camera {}, frame {f} ({})", camera.name, path.display()))
-            .rejected()?;
-            progress.tick();
-            Ok(FrameBlobs {
-                camera: camera.name.clone(),
-                frame: f,
-                blobs,
-            })
-        })
-        .collect();
+/// Rejected data naming the folder, camera, frame or file that cannot be read, has another
+/// size, or is missing; what `cameras` returns.
+pub fn detect_folder(
+    root: &Path,
+    fps: Option<f64>,
+    frames: Frames,
+    cameras: impl FnOnce(&[SourceCamera]) -> anyhow::Result<Vec<CameraSetup>>,
+) -> anyhow::Result<DetectedRecording> {
+    let mut source = FolderSource::open(root, fps).rejected()?;
+    if let Frames::Sample(at_most) = frames {
+        let wanted = match source.len_hint() {
+            Some(count) => sample_frames(count, at_most),
+            None => (0..at_most).collect(),
+        };
+        source = source.only_frames(&wanted);
+    }
+    let setups = cameras(source.cameras())?;
+    let progress = Progress::new("detect", source.len_hint().unwrap_or(0) as u64);
+    let mut stream = DetectStream::new(&mut source, setups).rejected()?;
+    let names = stream.camera_names();
+    let fps = stream.fps();
+    let mut sets = Vec::new();
+    for set in &mut stream {
+        sets.push(set.rejected()?);
+        progress.tick();
+    }
     progress.finish();
-    frames
+    Ok(DetectedRecording {
+        cameras: names,
+        fps,
+        sets,
+    })
 }
 
 /// The CSV text of the detections.
-fn csv_text(frames: &[FrameBlobs]) -> String {
+fn csv_text(recording: &DetectedRecording) -> String {
     let mut text =
         String::from("camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak\n");
-    for f in frames {
+    for f in recording
+        .sets
+        .iter()
+        .flat_map(|s| s.cameras.iter().flatten())
+    {
         let camera = csv_field(&f.camera);
         for b in &f.blobs {
             // Writing to a String cannot fail.
@@ -264,16 +295,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     inputs.extend(args.options.rig.as_deref());
     inputs.extend(args.options.tool.as_deref());
     check_outputs(&[Output::csv(&args.output)], &inputs)?;
-    let recording = open_recording(&args.recording, None).rejected()?;
-    let configs = configs(&args.options, &recording)?;
-    let frames = detect_recording(&recording, &configs)?;
-    write_atomically(&args.output, csv_text(&frames).as_bytes())?;
-    let blobs: usize = frames.iter().map(|f| f.blobs.len()).sum();
+    let recording = detect_folder(&args.recording, None, Frames::All, |cameras| {
+        configs(&args.options, cameras)
+    })?;
+    write_atomically(&args.output, csv_text(&recording).as_bytes())?;
+    let blobs: usize = recording
+        .sets
+        .iter()
+        .flat_map(|s| s.cameras.iter().flatten())
+        .map(|c| c.blobs.len())
+        .sum();
     crate::announce::wrote(
         std::slice::from_ref(&args.output),
         &format!(
             "{blobs} blobs in {} frames x {} cameras",
-            recording.frame_count(),
+            recording.sets.len(),
             recording.cameras.len()
         ),
     );

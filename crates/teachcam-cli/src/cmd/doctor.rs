@@ -1,24 +1,27 @@
 //! `teachcam doctor`: why a recording tracks badly, and what to do about it.
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use teachcam::correspond::Views;
-use teachcam::detect::{Blob, DetectConfig};
+use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
-use teachcam::geometry::CameraId;
-use teachcam::io::recording::{check_recording_against_rig, open_recording};
 use teachcam::io::{rig::read_rig, tool::read_tool};
-use teachcam::track::{TrackConfig, Tracker};
+use teachcam::pipeline::CameraSetup;
+use teachcam::track::Tracker;
+use teachcam::track::gates::{
+    GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
+};
 
 use crate::Rejected;
-use crate::cmd::detect::detect_recording;
+use crate::cmd::detect::{Frames, detect_folder};
+use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
 
 /// Say where a recording's frames are lost, what the data shows, and what to do.
 ///
 /// Detects every frame's blobs (keeping blobs of any roundness, to see what the detector's
-/// roundness cut drops), tracks them as `track` does with its defaults, and reports: lost
+/// roundness cut drops), tracks them as `track` does with its defaults (gates measured from
+/// the recording), and reports: lost
 /// frames per stage (detect, correspond, identify, register); per camera the blobs' diameters
 /// and roundness; per camera pair the epipolar distance of unambiguous blob matches (made
 /// without the tracker's tolerance); triangulation and registration residuals; and findings
@@ -29,7 +32,7 @@ use crate::cmd::detect::detect_recording;
 /// Example: `teachcam doctor rec --rig rec/rig.json --tool rec/tool.json`
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Recording folder: one sub-folder of PNG frames per rig camera.
+    /// Recording folder: one sub-folder of PNG frames or one video file per rig camera.
     pub recording: PathBuf,
     /// Camera rig (rig.json).
     #[arg(long)]
@@ -75,46 +78,55 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
     }
     let rig = read_rig(&args.rig).rejected()?;
     let tool = read_tool(&args.tool).rejected()?;
-    let mut recording = open_recording(&args.recording, None).rejected()?;
-    check_recording_against_rig(&recording, &rig).rejected()?;
-    recording.cameras = rig
-        .cameras
-        .iter()
-        .filter_map(|c| recording.camera(&c.name).cloned())
+    let recording = detect_folder(&args.recording, None, Frames::All, |_| {
+        Ok(rig
+            .cameras
+            .iter()
+            .map(|camera| CameraSetup {
+                name: camera.name.clone(),
+                detect: DetectConfig {
+                    min_roundness: 0.0,
+                    ..DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far)
+                },
+                size: Some((camera.image_size.width, camera.image_size.height)),
+            })
+            .collect())
+    })?;
+    let blobs = recording.blobs_by_camera(&rig);
+    // The gates `track` would measure: roundness from the blobs above its lowest floor, the
+    // others from a sample of the frames so gated. (`track` detects its roundness sample with
+    // that floor, which may split a merged blob that is left whole here.)
+    let roundness: Vec<f64> = sample_frames(blobs.len(), ROUNDNESS_SAMPLE_FRAMES)
+        .into_iter()
+        .flat_map(|f| blobs[f].values().flatten().map(|b| b.roundness))
+        .filter(|r| *r >= ROUNDNESS_FLOOR)
         .collect();
-    let configs: Vec<DetectConfig> = rig
-        .cameras
+    let min_roundness = roundness_gate(&roundness, None);
+    let kept_roundness = min_roundness.value;
+    let views: Vec<Views> = blobs
         .iter()
-        .map(|camera| DetectConfig {
-            min_roundness: 0.0,
-            ..DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far)
+        .map(|frame| {
+            frame
+                .iter()
+                .map(|(id, blobs)| {
+                    let kept = blobs.iter().filter(|b| b.roundness >= kept_roundness);
+                    (*id, kept.map(|b| b.center).collect())
+                })
+                .collect()
         })
         .collect();
-    let detections = detect_recording(&recording, &configs)?;
-    let kept_roundness = DetectConfig::default().min_roundness;
-    let frame_count = recording.frame_count();
-    let mut blobs: Vec<BTreeMap<CameraId, Vec<Blob>>> = vec![BTreeMap::new(); frame_count];
-    let mut views: Vec<Views> = vec![Views::new(); frame_count];
-    for d in &detections {
-        let Some(id) = rig.id_of(&d.camera) else {
-            continue;
-        };
-        let (Some(frame_blobs), Some(frame_views)) =
-            (blobs.get_mut(d.frame), views.get_mut(d.frame))
-        else {
-            continue;
-        };
-        frame_views.insert(
-            id,
-            d.blobs
-                .iter()
-                .filter(|b| b.roundness >= kept_roundness)
-                .map(|b| b.center)
-                .collect(),
-        );
-        frame_blobs.insert(id, d.blobs.clone());
-    }
-    let tracker = Tracker::new(&rig, &tool, TrackConfig::default());
+    let sampled: Vec<Views> = sample_frames(views.len(), GATE_SAMPLE_FRAMES)
+        .into_iter()
+        .map(|f| views[f].clone())
+        .collect();
+    let gates = measure_gates(
+        &rig,
+        &tool,
+        &sampled,
+        min_roundness,
+        &GateOverrides::default(),
+    );
+    let tracker = Tracker::new(&rig, &tool, gates.track_config());
     let (_, tracks) = tracker.track_all(&views, recording.fps);
     let config = DoctorConfig {
         min_roundness: kept_roundness,
@@ -201,6 +213,8 @@ fn report_text(report: &Report) -> String {
 
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeMap;
+
     use super::*;
 
     #[test]

@@ -3,11 +3,8 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use crate::cmd::detect::{DetectOptions, Frames, configs, detect_folder};
 use teachcam::detect::{MarkerSpread, RepeatabilityConfig, repeatability};
-use teachcam::io::recording::open_recording;
-
-use crate::Rejected;
-use crate::cmd::detect::{DetectOptions, FrameBlobs, configs, detect_recording};
 
 /// Repeatability of blob centres of static markers (the paper's Fig. 10).
 ///
@@ -59,9 +56,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         });
     }
     teachcam::io::check_outputs(&outputs, &[])?;
-    let recording = open_recording(&args.recording, None).rejected()?;
-    let configs = configs(&args.options, &recording)?;
-    let frames = detect_recording(&recording, &configs)?;
+    let recording = detect_folder(&args.recording, None, Frames::All, |cameras| {
+        configs(&args.options, cameras)
+    })?;
     let study = RepeatabilityConfig {
         match_radius_px: args.match_radius,
         min_frames: args.min_frames,
@@ -69,13 +66,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let per_camera: Vec<(String, Vec<MarkerSpread>)> = recording
         .cameras
         .iter()
-        .map(|camera| {
-            let blobs: Vec<Vec<_>> = frames
+        .enumerate()
+        .map(|(c, camera)| {
+            let blobs: Vec<Vec<_>> = recording
+                .sets
                 .iter()
-                .filter(|f: &&FrameBlobs| f.camera == camera.name)
-                .map(|f| f.blobs.clone())
+                .filter_map(|set| set.cameras.get(c)?.as_ref())
+                .map(|frame| frame.blobs.clone())
                 .collect();
-            (camera.name.clone(), repeatability(&blobs, &study))
+            (camera.clone(), repeatability(&blobs, &study))
         })
         .collect();
     let mut text =

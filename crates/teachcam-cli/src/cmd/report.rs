@@ -9,12 +9,14 @@ use image::{Rgb, RgbImage};
 use teachcam::camera::Rig;
 use teachcam::detect::{DetectConfig, detect};
 use teachcam::geometry::{Point3, Pose, parse_pose};
-use teachcam::io::recording::{GrayFrame, open_recording, read_frame};
+use teachcam::io::recording::GrayFrame;
 use teachcam::io::rig::read_rig;
 use teachcam::io::tool::read_tool;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::metrology::uncertainty_map;
 use teachcam::smooth::{SmoothConfig, trajectory_spectrum};
+use teachcam::source::FrameSource;
+use teachcam::source::folder::FolderSource;
 use teachcam::tool::Tool;
 use teachcam::trajectory::Trajectory;
 
@@ -435,20 +437,30 @@ fn uncertainty(rig: &Rig, tool: &Tool, raw: &Trajectory) -> Result<Option<Figure
 }
 
 fn camera_views(recording: &Path, rig: &Rig, tool: &Tool) -> Result<Option<Figure>> {
-    let Ok(rec) = open_recording(recording, None) else {
+    // The first frame of each camera, PNG or video; a folder that cannot be read has no figure.
+    let Ok(mut source) = FolderSource::open(recording, None) else {
+        return Ok(None);
+    };
+    let Some(first) = source.next_set().transpose().rejected()? else {
         return Ok(None);
     };
     const SCALE: u32 = 3;
     let mut tiles: Vec<RgbImage> = Vec::new();
     for camera in &rig.cameras {
-        let Some(first) = rec.camera(&camera.name).and_then(|c| c.frames.first()) else {
+        let Some(frame) = source
+            .cameras()
+            .iter()
+            .position(|c| c.name == camera.name)
+            .and_then(|c| first.cameras.get(c)?.as_ref())
+        else {
             continue;
         };
-        let GrayFrame::Eight(image) = read_frame(first, None).rejected()? else {
+        let decoded = frame.decode(&camera.name, None).rejected()?;
+        let GrayFrame::Eight(image) = decoded.as_ref() else {
             continue;
         };
         let blobs = detect(
-            &image,
+            image,
             &DetectConfig::for_marker(camera, tool.marker_diameter_mm, 300.0, 3000.0),
         )?;
         if blobs.is_empty() {

@@ -7,11 +7,9 @@ use anyhow::Context;
 use teachcam::correspond::Views;
 use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
 use teachcam::identify::{IdentifyConfig, check_identifiable};
-use teachcam::io::recording::{
-    CameraFrames, Recording, check_recording_against_rig, open_recording, read_frame,
-};
 use teachcam::io::trajectory::trajectory_text;
 use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
+use teachcam::pipeline::CameraSetup;
 use teachcam::sync::ResampleIssue;
 use teachcam::track::gates::{
     GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
@@ -21,15 +19,15 @@ use teachcam::track::{FrameTrack, Tracker, trajectory_from_tracks};
 use teachcam::trajectory::{Status, Trajectory};
 
 use crate::Rejected;
-use crate::cmd::detect::{FrameBlobs, detect_recording};
+use crate::cmd::detect::{DetectedRecording, Frames, detect_folder};
 
 pub use teachcam::track::uncertainty::rms;
 
 /// Frames whose images are detected twice to measure the roundness gate.
-const ROUNDNESS_SAMPLE_FRAMES: usize = 60;
+pub const ROUNDNESS_SAMPLE_FRAMES: usize = 60;
 
 /// Frames tracked in the first pass that measures the other gates.
-const GATE_SAMPLE_FRAMES: usize = 300;
+pub const GATE_SAMPLE_FRAMES: usize = 300;
 
 /// Below this fraction of frames posed, `track` points to `teachcam doctor`.
 const DOCTOR_BELOW: f64 = 0.9;
@@ -63,7 +61,8 @@ mod time_offsets;
 /// Example: `teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --diagnostics diag.csv`
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Recording folder: one sub-folder of PNG frames per rig camera.
+    /// Recording folder: one sub-folder of PNG frames or one video file (`cam0.avi`, any
+    /// format FFmpeg reads) per rig camera; `timestamps.csv` beside them gives frame times.
     pub recording: PathBuf,
     /// Camera rig (rig.json).
     #[arg(long)]
@@ -204,42 +203,25 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The recording with only some frames of each camera.
-fn frames_subset(recording: &Recording, frames: &[usize]) -> Recording {
-    Recording {
-        cameras: recording
-            .cameras
-            .iter()
-            .map(|c| CameraFrames {
-                name: c.name.clone(),
-                frames: frames
-                    .iter()
-                    .filter_map(|&f| c.frames.get(f).cloned())
-                    .collect(),
-            })
-            .collect(),
-        ..recording.clone()
-    }
-}
-
 /// Blob centres of each frame (rig camera ids) and each frame's blobs' predicted noise.
 fn views_of(
     rig: &teachcam::camera::Rig,
-    detections: &[FrameBlobs],
-    frame_count: usize,
+    recording: &DetectedRecording,
 ) -> (Vec<Views>, Vec<Vec<f64>>) {
-    let mut views: Vec<Views> = vec![Views::new(); frame_count];
-    let mut noise: Vec<Vec<f64>> = vec![Vec::new(); frame_count];
-    for d in detections {
-        let Some(id) = rig.id_of(&d.camera) else {
-            continue;
-        };
-        if d.frame >= frame_count {
-            continue;
-        }
-        views[d.frame].insert(id, d.blobs.iter().map(|b| b.center).collect());
-        noise[d.frame].extend(d.blobs.iter().map(|b| b.center_std_px));
-    }
+    let by_camera = recording.blobs_by_camera(rig);
+    let views = by_camera
+        .iter()
+        .map(|frame| {
+            frame
+                .iter()
+                .map(|(id, blobs)| (*id, blobs.iter().map(|b| b.center).collect()))
+                .collect()
+        })
+        .collect();
+    let noise = by_camera
+        .iter()
+        .map(|frame| frame.values().flatten().map(|b| b.center_std_px).collect())
+        .collect();
     (views, noise)
 }
 
@@ -292,57 +274,51 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
             args.far
         );
     }
-    let mut recording = open_recording(&args.recording, args.fps).rejected()?;
-    check_recording_against_rig(&recording, &rig).rejected()?;
-    // Only the rig's cameras, in the rig's order, each checked for its image size.
-    recording.cameras = rig
-        .cameras
-        .iter()
-        .filter_map(|c| recording.camera(&c.name).cloned())
-        .collect();
-    for (camera, frames) in rig.cameras.iter().zip(&recording.cameras) {
-        let expected = (camera.image_size.width, camera.image_size.height);
-        if let Some(first) = frames.frames.first() {
-            read_frame(first, Some(expected))
-                .with_context(|| format!("camera {}", camera.name))
-                .rejected()?;
-        }
-    }
-    let configs = |min_roundness: f64| -> Vec<DetectConfig> {
+    let setups = |min_roundness: f64| -> Vec<CameraSetup> {
         rig.cameras
             .iter()
             .map(|camera| {
-                let mut cfg =
+                let mut detect =
                     DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far);
-                cfg.method = args.method;
-                cfg.min_roundness = min_roundness;
+                detect.method = args.method;
+                detect.min_roundness = min_roundness;
                 if let Some(t) = args.threshold {
-                    cfg.threshold = Threshold::Fixed(t);
+                    detect.threshold = Threshold::Fixed(t);
                 }
-                cfg
+                // Only the rig's cameras, in the rig's order, every frame of the rig's size.
+                CameraSetup {
+                    name: camera.name.clone(),
+                    detect,
+                    size: Some((camera.image_size.width, camera.image_size.height)),
+                }
             })
             .collect()
     };
-    let frame_count = recording.frame_count();
 
     // First pass: the roundness gate from a sample detected with the lowest floor.
     let min_roundness = match overrides.min_roundness {
         Some(_) => roundness_gate(&[], overrides.min_roundness),
         None => {
-            let sample = frames_subset(
-                &recording,
-                &sample_frames(frame_count, ROUNDNESS_SAMPLE_FRAMES),
-            );
-            let blobs = detect_recording(&sample, &configs(ROUNDNESS_FLOOR))?;
-            let roundness: Vec<f64> = blobs
+            let sample = detect_folder(
+                &args.recording,
+                args.fps,
+                Frames::Sample(ROUNDNESS_SAMPLE_FRAMES),
+                |_| Ok(setups(ROUNDNESS_FLOOR)),
+            )?;
+            let roundness: Vec<f64> = sample
+                .sets
                 .iter()
-                .flat_map(|f| f.blobs.iter().map(|b| b.roundness))
+                .flat_map(|s| s.cameras.iter().flatten())
+                .flat_map(|c| c.blobs.iter().map(|b| b.roundness))
                 .collect();
             roundness_gate(&roundness, None)
         }
     };
-    let detections = detect_recording(&recording, &configs(min_roundness.value))?;
-    let (mut views, noise) = views_of(&rig, &detections, frame_count);
+    let recording = detect_folder(&args.recording, args.fps, Frames::All, |_| {
+        Ok(setups(min_roundness.value))
+    })?;
+    let frame_count = recording.sets.len();
+    let (mut views, noise) = views_of(&rig, &recording);
     let synchronised = match &args.time_offsets {
         Some(arg) => {
             let synchronised = time_offsets::synchronise(arg, &rig, views, recording.fps)?;
@@ -370,7 +346,8 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         use rayon::prelude::*;
         views.par_iter().map(|v| tracker.track_frame(v)).collect()
     };
-    let mut trajectory = trajectory_from_tracks(&tracks, recording.fps);
+    let times: Vec<f64> = recording.sets.iter().map(|s| s.time_s).collect();
+    let mut trajectory = trajectory_from_tracks(&tracks, &times);
     if let Some(synchronised) = &synchronised {
         // A frame whose blobs could not all be moved to the common time is degraded.
         for (sample, issues) in trajectory.samples.iter_mut().zip(&synchronised.issues) {
