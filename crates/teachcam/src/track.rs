@@ -396,7 +396,7 @@ impl<'a> Tracker<'a> {
         let gate_px = self.config.triangulate.max_residual_px;
         let relaxed = TriangulateConfig {
             max_residual_px: OUTLIER_LIMIT * gate_px,
-            ..self.config.triangulate.clone()
+            ..self.config.triangulate
         };
         correspondences
             .iter()
@@ -450,7 +450,7 @@ impl<'a> Tracker<'a> {
         let reflections = before - points.len();
         let positions: Vec<Point3> = points.iter().map(|p| p.point.position).collect();
         let identify_config = match which {
-            Points::WithinGate => self.config.identify.clone(),
+            Points::WithinGate => self.config.identify,
             // Widened like the triangulation gate, but never so far that the tool's distances
             // could be confused.
             Points::BeyondGate => {
