@@ -321,3 +321,225 @@ fn help_texts_explain_the_robot_commands() {
         }
     }
 }
+
+/// Each dialect drives its maker's robots: another maker's is refused with one line (exit 2)
+/// unless `--force`; KRL's DEF must be the file's name and a name KSS accepts.
+#[test]
+fn dialects_refuse_other_makers_and_krl_names_kss_refuses() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    let path = trajectory.to_str().unwrap();
+    let out_mod = dir.path().join("p.mod");
+    let args = [
+        "export",
+        "rapid",
+        path,
+        "--robot",
+        "kr6-r700",
+        "--wobj",
+        KUKA_WOBJ,
+        "--tcp",
+        KUKA_TCP,
+        "-o",
+        out_mod.to_str().unwrap(),
+    ];
+    let out = teachcam(&args);
+    assert_eq!(out.status.code(), Some(2));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("RAPID programs drive ABB robots") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!out_mod.exists());
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    assert!(teachcam(&forced).status.success());
+    for (file, name, says) in [
+        ("2nd-stroke.src", None, "has '-'"),
+        ("2nd_stroke.src", None, "must start with a letter"),
+        ("stroke-2.src", None, "has '-'"),
+        ("a_very_long_program_name_indeed.src", None, "at most 24"),
+        ("stroke.src", Some("other"), "must be its file's name"),
+    ] {
+        let output = dir.path().join(file);
+        let mut args = vec![
+            "export",
+            "krl",
+            path,
+            "--robot",
+            "kr6-r700",
+            "--wobj",
+            KUKA_WOBJ,
+            "--tcp",
+            KUKA_TCP,
+            "-o",
+            output.to_str().unwrap(),
+        ];
+        if let Some(name) = name {
+            args.extend(["--name", name]);
+        }
+        let out = teachcam(&args);
+        assert_eq!(out.status.code(), Some(2), "{file}");
+        let err = text(&out.stderr);
+        assert!(err.contains(says), "{file}: {err}");
+        assert!(!output.exists() && !output.with_extension("dat").exists());
+    }
+    let good = dir.path().join("Stroke_2.src");
+    let out = teachcam(&[
+        "export",
+        "krl",
+        path,
+        "--robot",
+        "kr6-r700",
+        "--wobj",
+        KUKA_WOBJ,
+        "--tcp",
+        KUKA_TCP,
+        "-o",
+        good.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let src = std::fs::read_to_string(&good).unwrap();
+    assert!(
+        src.contains("DEF Stroke_2( )") && src.contains("PTP XP1"),
+        "{src}"
+    );
+}
+
+/// `--tool-mass` and `--tool-cog` set the load every dialect writes; without them the
+/// program says the load was assumed.
+#[test]
+fn tool_load_is_written_as_given_or_said_to_be_assumed() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    let path = trajectory.to_str().unwrap();
+    let module = dir.path().join("p.mod");
+    let base = [
+        "export",
+        "rapid",
+        path,
+        "--wobj",
+        WOBJ,
+        "--tcp",
+        TCP,
+        "-o",
+        module.to_str().unwrap(),
+    ];
+    assert!(teachcam(&base).status.success());
+    let text_mod = std::fs::read_to_string(&module).unwrap();
+    assert!(
+        text_mod.contains("[0.200,[0.000,0.000,75.000]"),
+        "{text_mod}"
+    );
+    assert!(text_mod.contains("assumed"));
+    let mut given = base.to_vec();
+    given.extend(["--tool-mass", "1.25", "--tool-cog", "0,-10,80"]);
+    assert!(teachcam(&given).status.success());
+    let text_mod = std::fs::read_to_string(&module).unwrap();
+    assert!(
+        text_mod.contains("[1.250,[0.000,-10.000,80.000]"),
+        "{text_mod}"
+    );
+    assert!(text_mod.contains(", given."));
+    let script = dir.path().join("p.script");
+    let out = teachcam(&[
+        "export",
+        "urscript",
+        path,
+        "--robot",
+        "ur5e",
+        "--wobj",
+        UR_WOBJ,
+        "--tcp",
+        TCP,
+        "--tool-mass",
+        "1.25",
+        "--tool-cog",
+        "0,-10,80",
+        "-o",
+        script.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let text_script = std::fs::read_to_string(&script).unwrap();
+    assert!(
+        text_script.contains("set_payload(1.250, [0.000000, -0.010000, 0.080000])"),
+        "{text_script}"
+    );
+    let mut bad = base.to_vec();
+    bad.extend(["--tool-cog", "1,2"]);
+    let out = teachcam(&bad);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("--tool-cog"));
+}
+
+/// A robot given as a file (a UR5e's DH table) checks like the built-in one; a broken file is
+/// refused naming it and the field; each maker's joints table has its configuration columns.
+#[test]
+fn robots_from_files_and_each_makers_joints_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let trajectory = dir.path().join("stroke.csv");
+    write_stroke(&trajectory, 1.0);
+    let path = trajectory.to_str().unwrap();
+    let joint = r#"{"min_deg": -360, "max_deg": 360, "max_speed_deg_s": 180}"#;
+    let robot = dir.path().join("arm.json");
+    std::fs::write(
+        &robot,
+        format!(
+            r#"{{"name": "my-ur5e", "maker": "ur", "dh": {{"d1_mm": 162.5, "a2_mm": -425,
+            "a3_mm": -392.2, "d4_mm": 133.3, "d5_mm": 99.7, "d6_mm": 99.6}},
+            "joints": [{joint}, {joint}, {joint}, {joint}, {joint}, {joint}]}}"#
+        ),
+    )
+    .unwrap();
+    let from_file = dir.path().join("file.csv");
+    let builtin = dir.path().join("builtin.csv");
+    for (name, out) in [(robot.to_str().unwrap(), &from_file), ("ur5e", &builtin)] {
+        let o = teachcam(&[
+            "check",
+            path,
+            "--robot",
+            name,
+            "--wobj",
+            UR_WOBJ,
+            "--tcp",
+            TCP,
+            "--joints-out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}{}", text(&o.stdout), text(&o.stderr));
+    }
+    let table = std::fs::read_to_string(&builtin).unwrap();
+    assert_eq!(table, std::fs::read_to_string(&from_file).unwrap());
+    assert!(
+        table.starts_with(
+            "frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,time_s,configuration,ok\n"
+        )
+    );
+    let kuka = dir.path().join("kuka.csv");
+    let o = teachcam(&[
+        "check",
+        path,
+        "--robot",
+        "kr6-r900",
+        "--wobj",
+        KUKA_WOBJ,
+        "--tcp",
+        KUKA_TCP,
+        "--joints-out",
+        kuka.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}{}", text(&o.stdout), text(&o.stderr));
+    assert!(
+        std::fs::read_to_string(&kuka)
+            .unwrap()
+            .starts_with("frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,time_s,s,t,ok\n")
+    );
+    std::fs::write(&robot, r#"{"name": "x", "maker": "ur", "joints": []}"#).unwrap();
+    let o = teachcam(&["check", path, "--robot", robot.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = text(&o.stderr);
+    assert!(err.contains("arm.json") && err.contains("\"dh\""), "{err}");
+}

@@ -639,15 +639,43 @@ fn programs_match_their_golden_files() {
         "stroke.mod",
         &rapid_module(&program, &RapidConfig::default()),
     );
+    golden("stroke_poses.csv", &poses_csv(&report));
+    golden("stroke_joints.csv", &joints_csv(&report));
+    // KRL on a KR 6 R700 (the brush along FLANGE x), URScript on a UR5e.
+    let kuka = Robot::kr6_r700();
+    let kuka_cell = Cell {
+        base_from_wobj: pose_from_parts(
+            Vector3::new(450.0, 0.0, 150.0),
+            UnitQuaternion::identity(),
+        ),
+        flange_from_tcp: pose_from_parts(
+            Vector3::new(150.0, 0.0, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI / 2.0),
+        ),
+    };
+    let report = check_path(&kuka, &kuka_cell, &targets, &CheckConfig::default());
+    assert!(report.passes());
+    let program = build_program("stroke", &kuka_cell, &report, &SimplifyConfig::default());
     let krl = krl_program(&program);
     golden("stroke.src", &krl.src);
     golden("stroke.dat", &krl.dat);
+    golden("stroke_kr6_joints.csv", &joints_csv(&report));
+    let ur = Robot::ur5e();
+    let ur_cell = Cell {
+        base_from_wobj: pose_from_parts(
+            Vector3::new(400.0, 0.0, 100.0),
+            UnitQuaternion::identity(),
+        ),
+        ..cell
+    };
+    let report = check_path(&ur, &ur_cell, &targets, &CheckConfig::default());
+    assert!(report.passes());
+    let program = build_program("stroke", &ur_cell, &report, &SimplifyConfig::default());
     golden(
         "stroke.script",
         &urscript_program(&program, &UrScriptConfig::default()),
     );
-    golden("stroke_poses.csv", &poses_csv(&report));
-    golden("stroke_joints.csv", &joints_csv(&report));
+    golden("stroke_ur5e_joints.csv", &joints_csv(&report));
 }
 
 /// KRL's A, B, C and URScript's rotation vectors read back give the targets' orientations.
@@ -823,7 +851,7 @@ fn pose_text_errors_name_the_problem() {
     assert!(matches!(parse_pose("1,2,3"), Err(PoseTextError::Shape(_))));
     assert!(matches!(
         parse_pose("1,2,3,1,1,0,0"),
-        Err(PoseTextError::NotUnit(_))
+        Err(PoseTextError::NotUnit { .. })
     ));
     let pose = parse_pose(" 350, 0 ,150,1,0,0,0").unwrap();
     assert_eq!(pose.translation.vector, Vector3::new(350.0, 0.0, 150.0));

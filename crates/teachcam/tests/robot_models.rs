@@ -440,3 +440,442 @@ fn robot_files_describe_the_known_arms_and_name_their_mistakes() {
         assert!(e.contains("arm.json") && e.contains(says), "{says}: {e}");
     }
 }
+
+/// A 20 s painter's loop at 30 Hz: the tip circling 60 mm around the work object's origin
+/// while bobbing 10 mm, the brush pointing down and tilting by up to 14°.
+fn painting_loop() -> Vec<teachcam::robot::TcpTarget> {
+    use std::f64::consts::TAU;
+    (0..600)
+        .map(|k| {
+            let t = f64::from(k) / 30.0;
+            let phase = TAU * t / 10.0;
+            let tip = Vector3::new(
+                60.0 * phase.cos(),
+                60.0 * phase.sin(),
+                20.0 + 10.0 * (3.0 * phase).sin(),
+            );
+            let tilt = UnitQuaternion::from_euler_angles(
+                0.25 * (2.0 * phase).sin(),
+                0.2 * (phase + 0.4).cos(),
+                0.6 * phase.sin(),
+            );
+            teachcam::robot::TcpTarget {
+                frame: teachcam::geometry::FrameIndex(k as usize),
+                time_s: t,
+                wobj_from_tcp: pose_from_parts(
+                    tip,
+                    tilt * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI),
+                ),
+            }
+        })
+        .collect()
+}
+
+/// Where each robot paints the loop: the work object in front of it, the brush 150 mm out of
+/// the flange along the flange's normal (ABB and UR: z; KUKA: x, so the TCP's z is FLANGE x).
+fn painting_cell(robot: &Robot) -> teachcam::robot::Cell {
+    let x = match robot.name.as_str() {
+        "irb120" => 350.0,
+        "kr6-r700" => 450.0,
+        "kr6-r900" => 550.0,
+        "ur5e" => 400.0,
+        _ => 600.0,
+    };
+    let along_normal = match robot.maker {
+        Maker::Kuka => pose_from_parts(
+            Vector3::new(150.0, 0.0, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::y_axis(), FRAC_PI_2),
+        ),
+        Maker::Abb | Maker::UniversalRobots => {
+            pose_from_parts(Vector3::new(0.0, 0.0, 150.0), UnitQuaternion::identity())
+        }
+    };
+    teachcam::robot::Cell {
+        base_from_wobj: pose_from_parts(Vector3::new(x, 0.0, 120.0), UnitQuaternion::identity()),
+        flange_from_tcp: along_normal,
+    }
+}
+
+/// The contract's law on `--joints-out`'s table, for every robot: the joints read back from
+/// the CSV text (degrees, 6 decimals: 1.7e-8 rad, about 2e-5 mm at 1.2 m) through the
+/// independent forward kinematics reproduce every target to 0.01 mm and 0.001°, in one arm
+/// configuration, with the maker's configuration columns.
+#[test]
+fn joints_table_reproduces_the_path_through_the_independent_kinematics() {
+    use teachcam::robot::check::{CheckConfig, check_path};
+    use teachcam::robot::table::joints_csv;
+    let targets = painting_loop();
+    for robot in all_robots() {
+        let cell = painting_cell(&robot);
+        let start = std::time::Instant::now();
+        let report = check_path(&robot, &cell, &targets, &CheckConfig::default());
+        let elapsed = start.elapsed();
+        assert!(
+            report.passes(),
+            "{}: {:?}",
+            robot.name,
+            report.failing().next().map(|f| &f.issues)
+        );
+        let csv = joints_csv(&report);
+        let mut lines = csv.lines();
+        let header = lines.next().unwrap();
+        let expected_tail = match robot.maker {
+            Maker::Abb => "time_s,cf1,cf4,cf6,cfx,ok",
+            Maker::Kuka => "time_s,s,t,ok",
+            Maker::UniversalRobots => "time_s,configuration,ok",
+        };
+        assert_eq!(
+            header,
+            format!("frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg,{expected_tail}")
+        );
+        let mut worst = (0.0f64, 0.0f64);
+        let mut configurations = std::collections::BTreeSet::new();
+        for (line, target) in lines.zip(&targets) {
+            let fields: Vec<&str> = line.split(',').collect();
+            let degrees: [f64; 6] = std::array::from_fn(|i| fields[i + 1].parse().unwrap());
+            let joints = Joints::from_degrees(degrees);
+            let left = reference_forward(&robot, &joints) * cell.flange_from_tcp;
+            let right = cell.base_from_wobj * target.wobj_from_tcp;
+            let (dp, da) = distance(&left, &right);
+            worst = (worst.0.max(dp), worst.1.max(da));
+            configurations.insert(fields[8..fields.len() - 1].join(","));
+        }
+        eprintln!(
+            "{}: {} frames checked in {:.1} ms, joints table vs independent FK worst {:.2e} mm, {:.2e} deg",
+            robot.name,
+            targets.len(),
+            elapsed.as_secs_f64() * 1e3,
+            worst.0,
+            worst.1.to_degrees()
+        );
+        assert!(
+            worst.0 <= 0.01 && worst.1.to_degrees() <= 0.001,
+            "{}: {worst:?}",
+            robot.name
+        );
+        // KUKA's Turn and ABB's quadrants may change along the loop; UR's branch may not.
+        if robot.maker == Maker::UniversalRobots {
+            assert_eq!(
+                configurations.len(),
+                1,
+                "{}: {configurations:?}",
+                robot.name
+            );
+        }
+    }
+}
+
+/// A UR's base sweeping 360° through ±180°: the check follows it continuously (no 360° jump,
+/// which no axis could make in a frame) and keeps it inside ±360°; the IRB 120's axis 6 the
+/// same through its ±400°.
+#[test]
+fn turning_axes_are_followed_through_half_turns() {
+    use teachcam::robot::check::{CheckConfig, check_path};
+    for (robot, axis) in [(Robot::ur5e(), 0), (Robot::irb120(), 5)] {
+        let targets: Vec<teachcam::robot::TcpTarget> = (0..301)
+            .map(|k| {
+                let mut degrees = [10.0, -80.0, 70.0, -60.0, 50.0, 40.0];
+                if robot.maker == Maker::Abb {
+                    degrees = [10.0, 20.0, -10.0, 30.0, 50.0, 0.0];
+                }
+                degrees[axis] = -170.0 + 1.2 * f64::from(k);
+                teachcam::robot::TcpTarget {
+                    frame: teachcam::geometry::FrameIndex(k as usize),
+                    time_s: f64::from(k) / 30.0,
+                    wobj_from_tcp: reference_forward(&robot, &Joints::from_degrees(degrees)),
+                }
+            })
+            .collect();
+        let report = check_path(
+            &robot,
+            &teachcam::robot::Cell::default(),
+            &targets,
+            &CheckConfig::default(),
+        );
+        assert!(
+            report.passes(),
+            "{}: {:?}",
+            robot.name,
+            report.failing().next()
+        );
+        let angles: Vec<f64> = report
+            .frames
+            .iter()
+            .map(|f| f.joints.unwrap().0[axis].to_degrees())
+            .collect();
+        for pair in angles.windows(2) {
+            assert!(
+                (pair[1] - pair[0] - 1.2).abs() < 1e-6,
+                "{}: {pair:?}",
+                robot.name
+            );
+        }
+        assert!(angles.iter().all(|a| a.abs() <= 400.0));
+        assert!((angles[300] - angles[0] - 360.0).abs() < 1e-6);
+    }
+}
+
+/// The programs of the painting loop on a robot of each maker.
+fn loop_program(robot: &Robot) -> teachcam::robot::program::Program {
+    use teachcam::robot::check::{CheckConfig, check_path};
+    use teachcam::robot::program::build_program;
+    use teachcam::robot::simplify::SimplifyConfig;
+    let cell = painting_cell(robot);
+    let report = check_path(robot, &cell, &painting_loop(), &CheckConfig::default());
+    assert!(report.passes(), "{}", robot.name);
+    build_program("loop_1", &cell, &report, &SimplifyConfig::default())
+}
+
+/// The calls `name(args)` of a URScript line, with their argument counts (commas at depth
+/// zero inside the call's parentheses).
+fn calls(line: &str) -> Vec<(String, usize)> {
+    let bytes: Vec<char> = line.chars().collect();
+    let mut out = Vec::new();
+    for (i, c) in bytes.iter().enumerate() {
+        if *c != '(' {
+            continue;
+        }
+        let mut j = i;
+        while j > 0 && (bytes[j - 1].is_ascii_alphanumeric() || bytes[j - 1] == '_') {
+            j -= 1;
+        }
+        let name: String = bytes[j..i].iter().collect();
+        if name.is_empty() {
+            continue;
+        }
+        let (mut depth, mut args, mut empty) = (0i32, 1usize, true);
+        for c in &bytes[i + 1..] {
+            match c {
+                '(' | '[' => depth += 1,
+                ')' | ']' if depth == 0 => break,
+                ')' | ']' => depth -= 1,
+                ',' if depth == 0 => args += 1,
+                c if !c.is_whitespace() => empty = false,
+                _ => {}
+            }
+        }
+        out.push((name, if empty { 0 } else { args }));
+    }
+    out
+}
+
+/// Every function a URScript program calls exists in the URScript manual with that arity:
+/// the writer's table against the manual's signatures (written here from the e-Series
+/// manual), every generated call against the table; the first move is a `movej` whose
+/// joints (radians) reach the first target through the independent forward kinematics.
+#[test]
+fn urscript_calls_exist_with_the_manuals_arity() {
+    use teachcam::robot::urscript::{URSCRIPT_FUNCTIONS, UrScriptConfig, urscript_program};
+    // URScript manual (e-Series, 5.x): movej(q, a=1.4, v=1.05, t=0, r=0),
+    // movel(pose, a=1.2, v=0.25, t=0, r=0), pose_trans(p_from, p_from_to),
+    // set_payload(m, cog), set_tcp(pose).
+    let manual: [(&str, usize, usize); 5] = [
+        ("movej", 1, 5),
+        ("movel", 1, 5),
+        ("pose_trans", 2, 2),
+        ("set_payload", 1, 2),
+        ("set_tcp", 1, 1),
+    ];
+    assert_eq!(URSCRIPT_FUNCTIONS, manual);
+    for robot in [Robot::ur5e(), Robot::ur10e()] {
+        let program = loop_program(&robot);
+        let script = urscript_program(&program, &UrScriptConfig::default());
+        let mut seen = std::collections::BTreeSet::new();
+        for line in script.lines() {
+            let defining = line.trim_start().starts_with("def ");
+            for (name, args) in calls(line) {
+                if name == program.name {
+                    assert!(args == 0 && (defining || line == "loop_1()"), "{line}");
+                    continue;
+                }
+                let Some(&(_, min, max)) = manual.iter().find(|(n, _, _)| *n == name) else {
+                    panic!(
+                        "{}: '{name}' is not a URScript function: {line}",
+                        robot.name
+                    );
+                };
+                assert!((min..=max).contains(&args), "{name} with {args}: {line}");
+                seen.insert(name);
+            }
+        }
+        assert_eq!(seen.len(), 5, "{seen:?}");
+        let first = script.lines().find(|l| l.contains("movej(")).unwrap();
+        let inner = first.split('[').nth(1).unwrap().split(']').next().unwrap();
+        let q: Vec<f64> = inner
+            .split(',')
+            .map(|v| v.trim().parse().unwrap())
+            .collect();
+        let joints = Joints(q.try_into().unwrap());
+        let cell = painting_cell(&robot);
+        let reached = reference_forward(&robot, &joints) * cell.flange_from_tcp;
+        let wanted = cell.base_from_wobj * program.moves[0].target.wobj_from_tcp;
+        let (dp, da) = distance(&reached, &wanted);
+        // Six decimals of a radian: 1e-6 rad on arms about a metre long, 0.001 mm.
+        assert!(dp < 0.005 && da < 1e-5, "{}: {dp} mm {da} rad", robot.name);
+    }
+}
+
+/// KRL's structure, checked by hand (no KRL parser is packaged here): `DEF name( )` …
+/// `END` once, `DEFDAT name` … `ENDDAT` once, every declaration in the `.dat`, the `.src`
+/// executable only; the first motion a `PTP` to a point carrying `S` and `T`; every point a
+/// full E6POS (`X Y Z A B C S T E1..E6`); every point moved to declared; S and T those of the
+/// joints the check chose.
+#[test]
+fn krl_programs_have_kukas_structure() {
+    use teachcam::robot::krl::krl_program;
+    for robot in [Robot::kr6_r700(), Robot::kr6_r900()] {
+        let program = loop_program(&robot);
+        let krl = krl_program(&program);
+        let src: Vec<&str> = krl.src.lines().map(str::trim).collect();
+        let dat: Vec<&str> = krl.dat.lines().map(str::trim).collect();
+        let body: Vec<&str> = src
+            .iter()
+            .copied()
+            .filter(|l| !l.starts_with('&') && !l.starts_with(';') && !l.is_empty())
+            .collect();
+        assert_eq!(body.first(), Some(&"DEF loop_1( )"));
+        assert_eq!(body.last(), Some(&"END"));
+        assert_eq!(body.iter().filter(|l| l.starts_with("DEF ")).count(), 1);
+        assert_eq!(body.iter().filter(|l| **l == "END").count(), 1);
+        assert!(body.iter().all(|l| !l.starts_with("DECL")));
+        for needed in ["$TOOL=", "$BASE=", "$LOAD.M=", "$LOAD.CM="] {
+            let at = body.iter().position(|l| l.starts_with(needed)).unwrap();
+            let first_motion = body.iter().position(|l| l.starts_with("PTP ")).unwrap();
+            assert!(at < first_motion, "{needed} after the first motion");
+        }
+        let motions: Vec<&str> = body
+            .iter()
+            .copied()
+            .filter(|l| l.starts_with("PTP ") || l.starts_with("LIN "))
+            .collect();
+        assert!(motions[0].starts_with("PTP XP1"));
+        assert!(motions[1..].iter().all(|l| l.starts_with("LIN ")));
+        assert_eq!(motions.len(), program.moves.len());
+        assert_eq!(dat.iter().filter(|l| l.starts_with("DEFDAT ")).count(), 1);
+        assert_eq!(dat.iter().filter(|l| **l == "ENDDAT").count(), 1);
+        assert_eq!(dat.last(), Some(&"ENDDAT"));
+        let fields = [
+            "X", "Y", "Z", "A", "B", "C", "S", "T", "E1", "E2", "E3", "E4", "E5", "E6",
+        ];
+        let mut points = std::collections::BTreeMap::new();
+        for line in dat.iter().filter(|l| l.starts_with("DECL E6POS ")) {
+            let (name, value) = line["DECL E6POS ".len()..].split_once('=').unwrap();
+            let inner = value.strip_prefix('{').unwrap().strip_suffix('}').unwrap();
+            let pairs: Vec<(&str, f64)> = inner
+                .split(',')
+                .map(|f| {
+                    let (k, v) = f.split_once(' ').unwrap();
+                    (k, v.parse::<f64>().unwrap())
+                })
+                .collect();
+            let keys: Vec<&str> = pairs.iter().map(|p| p.0).collect();
+            assert_eq!(keys, fields, "{line}");
+            points.insert(name.to_string(), pairs);
+        }
+        for m in &motions {
+            let name = m.split_whitespace().nth(1).unwrap();
+            assert!(points.contains_key(name), "{name} not declared");
+        }
+        let first = &points["XP1"];
+        let move0 = &program.moves[0];
+        let st = status_turn(
+            &robot,
+            &move0.joints.unwrap(),
+            &move0.configuration.unwrap(),
+        );
+        assert_eq!(first[6].1, f64::from(st.status));
+        assert_eq!(first[7].1, f64::from(st.turn));
+        assert!(st.status < 8 && st.turn < 64);
+    }
+}
+
+/// The Python that runs `rapidchecker` (PyPI; `.ci/run` installs it in a venv and names it in
+/// `TEACHCAM_RAPIDCHECKER_PYTHON`), else `python3` when it has the package; `None` otherwise.
+fn rapidchecker_python() -> Option<std::path::PathBuf> {
+    let candidates = std::env::var_os("TEACHCAM_RAPIDCHECKER_PYTHON")
+        .map(std::path::PathBuf::from)
+        .into_iter()
+        .chain([std::path::PathBuf::from("python3")]);
+    candidates.into_iter().find(|python| {
+        std::process::Command::new(python)
+            .args(["-m", "rapidchecker", "--help"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    })
+}
+
+/// RAPID modules through an independent RAPID parser, `rapidchecker` (grammar and format):
+/// the golden stroke, and the painting loop's first moves with a given tool load split into
+/// routines. Skipped (said so) where the checker is not installed; under CI=true its absence
+/// fails.
+#[test]
+fn rapid_modules_pass_rapidchecker() {
+    use teachcam::robot::program::ToolLoad;
+    use teachcam::robot::rapid::{RapidConfig, rapid_module};
+    let Some(python) = rapidchecker_python() else {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "rapidchecker is not installed (.ci/run installs it)"
+        );
+        eprintln!("skipped: rapidchecker not installed (pip install rapidchecker)");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let golden = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/robot/stroke.mod"),
+    )
+    .unwrap();
+    let mut program = loop_program(&Robot::irb120());
+    // The first 15 moves: the checker (pyparsing) takes seconds per module.
+    program.moves.truncate(15);
+    program.load = Some(ToolLoad {
+        mass_kg: 1.5,
+        cog_in_flange: Vector3::new(0.0, -10.0, 80.0),
+    });
+    let loaded = rapid_module(&program, &RapidConfig::default());
+    let split = rapid_module(
+        &program,
+        &RapidConfig {
+            max_moves_per_routine: 7,
+        },
+    );
+    assert!(split.matches("PROC path_").count() > 1);
+    let mut files = Vec::new();
+    for (name, text) in [
+        ("stroke.mod", golden),
+        ("loaded.mod", loaded),
+        ("split.mod", split),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        files.push(path);
+    }
+    let out = std::process::Command::new(&python)
+        .args(["-m", "rapidchecker"])
+        .args(&files)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The checker can fail: a comma where RAPID wants a semicolon is refused.
+    let broken = dir.path().join("broken.mod");
+    let text = std::fs::read_to_string(&files[0])
+        .unwrap()
+        .replacen("ENDPROC", "ENDPROC,", 1);
+    std::fs::write(&broken, text).unwrap();
+    let out = std::process::Command::new(&python)
+        .args(["-m", "rapidchecker"])
+        .arg(&broken)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        !out.status.success(),
+        "rapidchecker accepted a broken module"
+    );
+}

@@ -10,8 +10,11 @@
 //! backward differences `(q_k − q_{k−1}) / (t_k − t_{k−1})`, accelerations their differences.
 
 use crate::geometry::{FrameIndex, Vec3};
+use std::f64::consts::TAU;
+
 use crate::robot::kinematics::{
     ArmConfiguration, Elbow, IkSolution, Joints, Robot, Shoulder, inverse, inverse_within_limits,
+    wrap,
 };
 use crate::robot::{Cell, TcpTarget};
 
@@ -284,11 +287,13 @@ pub fn check_path(
     targets: &[TcpTarget],
     config: &CheckConfig,
 ) -> CheckReport {
+    let turning = turning_axes(robot);
     let candidates: Vec<Vec<IkSolution>> = targets
         .iter()
-        .map(|t| inverse_within_limits(robot, &cell.base_from_flange(&t.wobj_from_tcp)))
+        .map(|t| path_candidates(robot, &turning, &cell.base_from_flange(&t.wobj_from_tcp)))
         .collect();
-    let chosen = choose_along_path(robot, targets, &candidates, config);
+    let mut chosen = choose_along_path(robot, &turning, targets, &candidates, config);
+    let beyond_turns = unwrap_turning_axes(robot, &turning, &mut chosen);
     let mut frames = Vec::with_capacity(targets.len());
     let mut previous: Option<(usize, IkSolution)> = None;
     let mut previous_speed: Option<(usize, [f64; 6])> = None;
@@ -299,7 +304,7 @@ pub fn check_path(
         let mut joint_speed = [0.0; 6];
         let mut joint_acceleration = [0.0; 6];
         let Some(solution) = chosen[k] else {
-            issues.push(reach_issue(robot, cell, target));
+            issues.push(beyond_turns[k].unwrap_or_else(|| reach_issue(robot, cell, target)));
             frames.push(FrameCheck {
                 target: *target,
                 joints: None,
@@ -443,16 +448,19 @@ fn start_cost(robot: &Robot, solution: &IkSolution) -> f64 {
 
 fn step_cost(
     robot: &Robot,
+    turning: &[bool; 6],
     from: &IkSolution,
     to: &IkSolution,
     dt: f64,
     config: &CheckConfig,
 ) -> f64 {
     let mut ratio: f64 = 0.0;
-    for axis in 0..6 {
+    for (axis, turns) in turning.iter().enumerate() {
         // A non-increasing time (reported by the check) costs as a step in a nanosecond.
         let max_step = robot.limits[axis].max_speed * config.speed_fraction * dt.max(1e-9);
-        ratio = ratio.max((to.joints.0[axis] - from.joints.0[axis]).abs() / max_step);
+        let step = to.joints.0[axis] - from.joints.0[axis];
+        let step = if *turns { wrap(step) } else { step };
+        ratio = ratio.max(step.abs() / max_step);
     }
     let flip = if same_configuration(&from.configuration, &to.configuration) {
         0.0
@@ -470,6 +478,7 @@ fn same_configuration(a: &ArmConfiguration, b: &ArmConfiguration) -> bool {
 /// consecutive targets that have solutions.
 fn choose_along_path(
     robot: &Robot,
+    turning: &[bool; 6],
     targets: &[TcpTarget],
     candidates: &[Vec<IkSolution>],
     config: &CheckConfig,
@@ -498,17 +507,21 @@ fn choose_along_path(
             let mut next_back = Vec::with_capacity(candidates[k].len());
             // Predecessors cheapest first: a step never costs less than zero, so the search
             // for a target's best predecessor stops at the first whose cost alone is no
-            // better (exact; it matters for a UR, whose ±360° copies make 512 candidates).
+            // better; it starts from the candidate at the same index (the same branch when
+            // both frames have the same candidates), whose small step makes it stop early.
             let mut order: Vec<usize> = (0..cost.len()).collect();
             order.sort_by(|&a, &b| cost[a].total_cmp(&cost[b]));
-            for to in &candidates[k] {
+            for (j, to) in candidates[k].iter().enumerate() {
                 let mut best = (f64::INFINITY, 0);
+                if let Some(from) = candidates[k - 1].get(j) {
+                    best = (cost[j] + step_cost(robot, turning, from, to, dt, config), j);
+                }
                 for &i in &order {
                     if cost[i] >= best.0 {
                         break;
                     }
                     let from = &candidates[k - 1][i];
-                    let c = cost[i] + step_cost(robot, from, to, dt, config);
+                    let c = cost[i] + step_cost(robot, turning, from, to, dt, config);
                     if c < best.0 {
                         best = (c, i);
                     }
@@ -533,6 +546,100 @@ fn choose_along_path(
         start = end;
     }
     chosen
+}
+
+/// The axes whose range spans a full turn or more (every angle has a copy inside it: each
+/// axis of a UR, axis 6 of the IRB 120 and of the KR 6). Along a path they move continuously,
+/// so their ±360° copies are not separate candidates: the path is chosen on their wrapped
+/// angles, then unwrapped and placed in the range as a whole ([`unwrap_turning_axes`]).
+fn turning_axes(robot: &Robot) -> [bool; 6] {
+    std::array::from_fn(|i| robot.limits[i].max - robot.limits[i].min >= TAU - 1e-9)
+}
+
+/// The candidates of one target: every branch, with the copies of the axes that do not turn
+/// fully ([`inverse_within_limits`] on those axes), the turning axes wrapped.
+fn path_candidates(
+    robot: &Robot,
+    turning: &[bool; 6],
+    base_from_flange: &crate::geometry::Pose,
+) -> Vec<IkSolution> {
+    let mut relaxed = robot.clone();
+    for (limit, turns) in relaxed.limits.iter_mut().zip(turning) {
+        if *turns {
+            limit.min = -std::f64::consts::PI;
+            limit.max = std::f64::consts::PI;
+        }
+    }
+    inverse_within_limits(&relaxed, base_from_flange)
+}
+
+/// Unwraps the turning axes along each run of chosen solutions and shifts each by the whole
+/// turns that keep the most frames of the run inside the range (ties: the first frame nearest
+/// the middle of the range). A frame still outside (a run turning further than the range) is
+/// taken out, with the issue saying which axis and where.
+fn unwrap_turning_axes(
+    robot: &Robot,
+    turning: &[bool; 6],
+    chosen: &mut [Option<IkSolution>],
+) -> Vec<Option<FrameIssue>> {
+    let mut issues = vec![None; chosen.len()];
+    let mut start = 0;
+    while start < chosen.len() {
+        if chosen[start].is_none() {
+            start += 1;
+            continue;
+        }
+        let mut end = start + 1;
+        while end < chosen.len() && chosen[end].is_some() {
+            end += 1;
+        }
+        for axis in (0..6).filter(|&a| turning[a]) {
+            let mut angles: Vec<f64> = Vec::with_capacity(end - start);
+            for solution in chosen[start..end].iter().flatten() {
+                let raw = solution.joints.0[axis];
+                let angle = match angles.last() {
+                    Some(previous) => previous + wrap(raw - previous),
+                    None => raw,
+                };
+                angles.push(angle);
+            }
+            let limit = &robot.limits[axis];
+            let middle = 0.5 * (limit.min + limit.max);
+            let score = |turns: i32| {
+                let shift = f64::from(turns) * TAU;
+                let inside = angles
+                    .iter()
+                    .filter(|a| limit.contains(**a + shift))
+                    .count();
+                (inside, -(angles[0] + shift - middle).abs())
+            };
+            let turns = (-3..=3)
+                .max_by(|&a, &b| {
+                    let (ia, da) = score(a);
+                    let (ib, db) = score(b);
+                    ia.cmp(&ib).then(da.total_cmp(&db))
+                })
+                .unwrap_or(0);
+            let shift = f64::from(turns) * TAU;
+            for (k, angle) in (start..end).zip(&angles) {
+                let angle = angle + shift;
+                if limit.contains(angle) {
+                    if let Some(solution) = chosen[k].as_mut() {
+                        solution.joints.0[axis] = angle;
+                    }
+                } else {
+                    issues[k] = Some(FrameIssue::OutsideLimits { axis, angle });
+                }
+            }
+        }
+        for k in start..end {
+            if issues[k].is_some() {
+                chosen[k] = None;
+            }
+        }
+        start = end;
+    }
+    issues
 }
 
 fn suggestions(
