@@ -851,7 +851,7 @@ fn pose_text_errors_name_the_problem() {
     assert!(matches!(parse_pose("1,2,3"), Err(PoseTextError::Shape(_))));
     assert!(matches!(
         parse_pose("1,2,3,1,1,0,0"),
-        Err(PoseTextError::NotUnit(_))
+        Err(PoseTextError::NotUnit { .. })
     ));
     let pose = parse_pose(" 350, 0 ,150,1,0,0,0").unwrap();
     assert_eq!(pose.translation.vector, Vector3::new(350.0, 0.0, 150.0));
