@@ -209,3 +209,90 @@ fn refine_and_fix_intrinsics_together_are_a_usage_error() {
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(stderr.contains("--fix-intrinsics"), "{stderr}");
 }
+
+/// One line on stderr, exit 1, no output file: what a user's mistake in the inputs gets.
+fn refused(args: &[&str], out: &std::path::Path) -> String {
+    let run = teachcam().args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert_eq!(run.status.code(), Some(1), "{args:?}: {stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{args:?}: {stderr}");
+    assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    stderr
+}
+
+#[test]
+fn missing_or_foreign_images_and_unknown_names_are_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("camera.json");
+    let board = [
+        "--pattern",
+        "chessboard",
+        "--inner",
+        "9x6",
+        "--square",
+        "25",
+    ];
+    let nothere = dir.path().join("nothere.jpg");
+    let mut args = vec!["calibrate", "intrinsics"];
+    args.extend(board);
+    args.extend([nothere.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let message = refused(&args, &out);
+    assert!(
+        message.contains("nothere.jpg: no such image file"),
+        "{message}"
+    );
+
+    let csv = dir.path().join("corners.csv");
+    std::fs::write(&csv, "x,y\n1,2\n").unwrap();
+    let image = args.len() - 3;
+    args[image] = csv.to_str().unwrap();
+    let message = refused(&args, &out);
+    assert!(
+        message.contains("corners.csv: not an image") && message.contains(".png, .jpg or .jpeg"),
+        "{message}"
+    );
+
+    // A rig folder: the names given must be in it, and the message lists what is.
+    let boards = dir.path().join("boards");
+    for camera in ["cam0", "cam1"] {
+        std::fs::create_dir_all(boards.join(camera)).unwrap();
+        for view in ["world", "v000"] {
+            std::fs::write(boards.join(camera).join(format!("{view}.png")), b"").unwrap();
+        }
+    }
+    let rig = dir.path().join("rig.json");
+    let mut args = vec!["calibrate", "rig"];
+    args.extend(board);
+    args.extend([boards.to_str().unwrap(), "-o", rig.to_str().unwrap()]);
+    let with = |extra: &[&str]| -> Vec<String> {
+        args.iter().chain(extra).map(|s| (*s).to_string()).collect()
+    };
+    let run = |extra: &[&str]| {
+        let owned = with(extra);
+        let borrowed: Vec<&str> = owned.iter().map(String::as_str).collect();
+        refused(&borrowed, &rig)
+    };
+    let message = run(&["--world", "table"]);
+    assert!(
+        message.contains("--world table") && message.contains("views: v000, world"),
+        "{message}"
+    );
+    let message = run(&["--world", "world", "--intrinsics", "cam9=cam9.json"]);
+    assert!(
+        message.contains("--intrinsics cam9=cam9.json") && message.contains("cameras: cam0, cam1"),
+        "{message}"
+    );
+    let message = run(&["--world-camera", "cam7"]);
+    assert!(message.contains("--world-camera cam7"), "{message}");
+
+    // Neither --world nor --world-camera: a usage error naming both.
+    let owned = with(&[]);
+    let borrowed: Vec<&str> = owned.iter().map(String::as_str).collect();
+    let usage = teachcam().args(&borrowed).output().unwrap();
+    let stderr = String::from_utf8_lossy(&usage.stderr);
+    assert_eq!(usage.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--world") && stderr.contains("--world-camera"),
+        "{stderr}"
+    );
+}

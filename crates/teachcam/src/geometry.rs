@@ -250,12 +250,25 @@ pub enum PoseTextError {
     )]
     Shape(String),
     /// The quaternion is not of unit length.
-    #[error("quaternion qw,qx,qy,qz of '{0}' is not of unit length")]
-    NotUnit(String),
+    #[error(
+        "quaternion qw,qx,qy,qz of '{text}' has norm {norm:.6}; expected 1 within {QUATERNION_NORM_TOLERANCE} (written to 3 decimals is enough)"
+    )]
+    NotUnit {
+        /// The text given.
+        text: String,
+        /// Its quaternion's norm.
+        norm: f64,
+    },
 }
 
+/// How far from 1 the norm of a quaternion given as text may be: a unit quaternion rounded
+/// to three decimals (`0.707,0,0,0.707`, norm 0.99985) is off by at most 1e-3. It is
+/// renormalised: the rotation moves by at most about 0.1°, what the rounding itself did.
+pub const QUATERNION_NORM_TOLERANCE: f64 = 2e-3;
+
 /// A pose from the text `x,y,z,qw,qx,qy,qz` (millimetres, then a unit quaternion within
-/// 1e-4, renormalised), the form of the `--pose`, `--wobj` and `--tcp` flags.
+/// [`QUATERNION_NORM_TOLERANCE`], renormalised), the form of the `--pose`, `--wobj` and
+/// `--tcp` flags.
 ///
 /// # Errors
 /// [`PoseTextError`] quoting the text.
@@ -273,8 +286,11 @@ pub fn parse_pose(text: &str) -> Result<Pose, PoseTextError> {
     }
     let q = Quaternion::new(qw, qx, qy, qz);
     let norm = q.norm();
-    if !norm.is_finite() || (norm - 1.0).abs() > 1e-4 {
-        return Err(PoseTextError::NotUnit(text.to_string()));
+    if !norm.is_finite() || (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+        return Err(PoseTextError::NotUnit {
+            text: text.to_string(),
+            norm,
+        });
     }
     Ok(pose_from_parts(
         Vec3::new(x, y, z),
@@ -315,8 +331,20 @@ mod tests {
         ));
         assert!(matches!(
             parse_pose("1,2,3,2,0,0,0"),
-            Err(PoseTextError::NotUnit(_))
+            Err(PoseTextError::NotUnit { .. })
         ));
+        // Rounded to three decimals: accepted, renormalised.
+        let rounded = parse_pose("0,0,0,0.707,0,0,0.707").unwrap();
+        assert_relative_eq!(
+            rounded.rotation.angle(),
+            std::f64::consts::FRAC_PI_2,
+            epsilon = 1e-9
+        );
+        let message = parse_pose("0,0,0,0.9,0,0,0.1").unwrap_err().to_string();
+        assert!(
+            message.contains("norm 0.905539") && message.contains("within 0.002"),
+            "{message}"
+        );
         assert!(matches!(
             parse_pose("nan,2,3,1,0,0,0"),
             Err(PoseTextError::Shape(_))

@@ -142,7 +142,9 @@ impl Default for SmoothConfig {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SmoothError {
     /// No pose at all, or fewer than two samples.
-    #[error("trajectory has {samples} samples and {poses} poses: nothing to smooth")]
+    #[error(
+        "trajectory has {samples} samples and {poses} poses: a filter or spectrum needs at least 2 samples with poses"
+    )]
     Empty {
         /// Samples.
         samples: usize,

@@ -14,7 +14,9 @@
 //!
 //! Every frame gets a [`Status`] with its reasons ([`Flag`]): `ok`; `degraded` (a view
 //! dropped, fewer markers than the tool has); `outlier` (a pose whose registration residual
-//! is beyond the gate: written, flagged); `lost` ([`Lost`], no pose). The gates are data,
+//! is beyond the gate, or that needed a marker beyond the triangulation or the distance gate,
+//! up to [`OUTLIER_LIMIT`] times them, because the frame had too few markers within them — a
+//! marker partly hidden, a blob shifted by a neighbour: written, flagged); `lost` ([`Lost`], no pose). The gates are data,
 //! measured from the recording ([`gates`]), and so is a mirror the work object makes: points
 //! behind it are reflections, left out before identification ([`reflections`]). Frames are
 //! independent, so they run in parallel.
@@ -139,6 +141,25 @@ pub enum Flag {
         /// Combinations the ambiguous groups had.
         combinations: usize,
     },
+    /// A marker's point has a triangulation residual beyond the gate (a marker partly
+    /// hidden, a blob shifted by a neighbour); the frame had too few markers without it.
+    #[error(
+        "a marker's triangulation residual {residual_px:.3} px beyond the {gate_px:.3} px gate"
+    )]
+    PointResidual {
+        /// The point's RMS residual.
+        residual_px: f64,
+        /// The gate.
+        gate_px: f64,
+    },
+    /// Too few markers within the triangulation and distance gates; posed with both widened.
+    #[error(
+        "too few markers within the gates: posed with the triangulation and distance gates widened {factor}x"
+    )]
+    WidenedGates {
+        /// How many times the gates.
+        factor: f64,
+    },
     /// The registration residual is beyond the gate.
     #[error("registration residual {rms_mm:.3} mm beyond the {gate_mm:.3} mm gate")]
     RegistrationResidual {
@@ -154,7 +175,9 @@ impl Flag {
     #[must_use]
     pub fn status(&self) -> Status {
         match self {
-            Self::RegistrationResidual { .. } => Status::Outlier,
+            Self::RegistrationResidual { .. }
+            | Self::PointResidual { .. }
+            | Self::WidenedGates { .. } => Status::Outlier,
             Self::ViewDropped { .. } | Self::FewerMarkers { .. } | Self::TooManyPairings { .. } => {
                 Status::Degraded
             }
@@ -229,6 +252,15 @@ impl FrameTrack {
     }
 }
 
+/// Which triangulated points a frame is tracked with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Points {
+    /// Residuals within the gate.
+    WithinGate,
+    /// Also residuals up to [`OUTLIER_LIMIT`] times the gate (flagged).
+    BeyondGate,
+}
+
 /// A triangulated correspondence with the flags its triangulation raised.
 #[derive(Debug, Clone)]
 struct FramePoint {
@@ -298,7 +330,32 @@ impl<'a> Tracker<'a> {
     pub fn track_frame(&self, views: &Views) -> FrameTrack {
         let Correspondences { unique, ambiguous } =
             correspond_all(self.rig, &self.geometry, views, &self.config.correspond);
-        let unique_points = self.triangulate_all(views, &unique);
+        let strict = self.track_points(views, &unique, &ambiguous, Points::WithinGate);
+        if !matches!(strict.outcome, Err(Lost::TooFewMarkers { .. })) {
+            return strict;
+        }
+        // Too few markers within the gate: the points a little beyond it (a marker partly
+        // hidden, a blob shifted by a neighbour) may still give a pose, flagged an outlier.
+        let mut relaxed = self.track_points(views, &unique, &ambiguous, Points::BeyondGate);
+        match &relaxed.outcome {
+            Ok(_) => {
+                relaxed.flags.push(Flag::WidenedGates {
+                    factor: OUTLIER_LIMIT,
+                });
+                relaxed
+            }
+            Err(_) => strict,
+        }
+    }
+
+    fn track_points(
+        &self,
+        views: &Views,
+        unique: &[Correspondence],
+        ambiguous: &[crate::correspond::Ambiguity],
+        which: Points,
+    ) -> FrameTrack {
+        let unique_points = self.triangulate_all(views, unique, which);
         let combinations = ambiguous
             .iter()
             .try_fold(1_usize, |n, a| n.checked_mul(a.alternatives.len()))
@@ -309,18 +366,22 @@ impl<'a> Tracker<'a> {
             if !ambiguous.is_empty() {
                 extra_flags.push(Flag::TooManyPairings { combinations });
             }
-            candidates.push(self.candidate(unique_points));
+            candidates.push(self.candidate(unique_points, which));
         } else {
             for k in 0..combinations {
                 // Mixed-radix digits of k pick one alternative per group.
                 let mut rest = k;
                 let mut points = unique_points.clone();
-                for group in &ambiguous {
+                for group in ambiguous {
                     let n = group.alternatives.len();
-                    points.extend(self.triangulate_all(views, &group.alternatives[rest % n]));
+                    points.extend(self.triangulate_all(
+                        views,
+                        &group.alternatives[rest % n],
+                        which,
+                    ));
                     rest /= n;
                 }
-                candidates.push(self.candidate(points));
+                candidates.push(self.candidate(points, which));
             }
         }
         self.choose(candidates, extra_flags, combinations.min(MAX_COMBINATIONS))
@@ -330,7 +391,13 @@ impl<'a> Tracker<'a> {
         &self,
         views: &Views,
         correspondences: &[Correspondence],
+        which: Points,
     ) -> Vec<FramePoint> {
+        let gate_px = self.config.triangulate.max_residual_px;
+        let relaxed = TriangulateConfig {
+            max_residual_px: OUTLIER_LIMIT * gate_px,
+            ..self.config.triangulate
+        };
         correspondences
             .iter()
             .filter_map(|c| {
@@ -339,17 +406,30 @@ impl<'a> Tracker<'a> {
                     .iter()
                     .filter_map(|(cam, i)| Some((*cam, *views.get(cam)?.get(*i)?)))
                     .collect();
-                let robust =
-                    triangulate_leaving_one_out(self.rig, &pixels, &self.config.triangulate)
-                        .ok()?;
-                let flag =
+                let strict =
+                    triangulate_leaving_one_out(self.rig, &pixels, &self.config.triangulate);
+                let (robust, beyond) = match (strict, which) {
+                    (Ok(robust), _) => (robust, false),
+                    (Err(_), Points::WithinGate) => return None,
+                    (Err(_), Points::BeyondGate) => (
+                        triangulate_leaving_one_out(self.rig, &pixels, &relaxed).ok()?,
+                        true,
+                    ),
+                };
+                let flag = if beyond {
+                    Some(Flag::PointResidual {
+                        residual_px: robust.point.residual_px,
+                        gate_px,
+                    })
+                } else {
                     robust
                         .dropped
                         .zip(robust.residual_with_all_px)
                         .map(|(camera, residual_px)| Flag::ViewDropped {
                             camera,
                             residual_px,
-                        });
+                        })
+                };
                 Some(FramePoint {
                     point: robust.point,
                     flag,
@@ -358,7 +438,7 @@ impl<'a> Tracker<'a> {
             .collect()
     }
 
-    fn candidate(&self, points: Vec<FramePoint>) -> Candidate {
+    fn candidate(&self, points: Vec<FramePoint>, which: Points) -> Candidate {
         let before = points.len();
         let points: Vec<FramePoint> = match &self.config.mirror {
             Some(mirror) => points
@@ -369,11 +449,20 @@ impl<'a> Tracker<'a> {
         };
         let reflections = before - points.len();
         let positions: Vec<Point3> = points.iter().map(|p| p.point.position).collect();
-        let identification = identify(
-            &self.tool.markers_in_tool,
-            &positions,
-            &self.config.identify,
-        );
+        let identify_config = match which {
+            Points::WithinGate => self.config.identify,
+            // Widened like the triangulation gate, but never so far that the tool's distances
+            // could be confused.
+            Points::BeyondGate => {
+                let gate_mm = self.config.identify.distance_tolerance_mm;
+                IdentifyConfig {
+                    distance_tolerance_mm: (OUTLIER_LIMIT * gate_mm)
+                        .min(gates::distance_tolerance_ceiling_mm(self.tool))
+                        .max(gate_mm),
+                }
+            }
+        };
+        let identification = identify(&self.tool.markers_in_tool, &positions, &identify_config);
         let mut outcome = self.pose(&identification.labels, &positions);
         let mut rival_in_world = None;
         if let (Ok(pose), Some(rival)) = (&outcome, &identification.rival) {

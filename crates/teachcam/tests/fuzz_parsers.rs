@@ -402,7 +402,6 @@ fn trajectory_csv() {
 
 /// A recording folder of three cameras with two tiny frames each; `recording.json` mutated.
 #[test]
-#[ignore = "filters: R6, recording.json fps 1e-320 accepted (frame times inf); their fps check (io::recording) is in progress"]
 fn recording_json() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("rec");

@@ -851,7 +851,7 @@ fn pose_text_errors_name_the_problem() {
     assert!(matches!(parse_pose("1,2,3"), Err(PoseTextError::Shape(_))));
     assert!(matches!(
         parse_pose("1,2,3,1,1,0,0"),
-        Err(PoseTextError::NotUnit(_))
+        Err(PoseTextError::NotUnit { .. })
     ));
     let pose = parse_pose(" 350, 0 ,150,1,0,0,0").unwrap();
     assert_eq!(pose.translation.vector, Vector3::new(350.0, 0.0, 150.0));
@@ -928,4 +928,51 @@ fn rapid_dwell_keeps_its_recorded_duration() {
         module.contains("MoveL p0002, v0002\\T:=1.0000, fine,"),
         "{module}"
     );
+}
+
+/// A world whose z points into the table (a rig calibrated from a chessboard lying on it):
+/// with the README's `--wobj` the brush points up and no frame is in reach. The check finds a
+/// turned and placed work object, verified; with it every frame is in reach.
+#[test]
+fn a_world_upside_down_gets_a_verified_work_object() {
+    for model in [Robot::irb120(), Robot::kr6_r700()] {
+        let mut cell = cell();
+        cell.base_from_wobj.rotation = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), PI);
+        if model.maker == teachcam::robot::kinematics::Maker::Kuka {
+            cell.flange_from_tcp = pose_from_parts(
+                Vector3::new(150.0, 0.0, 0.0),
+                UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI / 2.0),
+            );
+        }
+        let targets = targets(&stroke(4.0, 1.0));
+        let report = check_path(&model, &cell, &targets, &CheckConfig::default());
+        assert!(report.unreachable_count() > 0, "{}", model.name);
+        let fixed = match report.suggestions.first().copied() {
+            Some(Suggestion::UseWorkObject { base_from_wobj }) => Cell {
+                base_from_wobj,
+                ..cell
+            },
+            Some(Suggestion::MoveWorkObject { by_in_base }) => {
+                let mut moved = cell;
+                moved.base_from_wobj.translation.vector += by_in_base;
+                moved
+            }
+            other => panic!("{}: no work-object suggestion: {other:?}", model.name),
+        };
+        // The suggestion as printed (3 decimals, 9 in the quaternion) read back.
+        if let Some(Suggestion::UseWorkObject { .. }) = report.suggestions.first() {
+            let text = report.suggestions[0].to_string();
+            let pose = text.split('"').nth(1).unwrap();
+            let parsed = teachcam::geometry::parse_pose(pose).unwrap();
+            assert_pose_near(&parsed, &fixed.base_from_wobj, 1e-3, 1e-8, "printed --wobj");
+        }
+        let again = check_path(&model, &fixed, &targets, &CheckConfig::default());
+        assert_eq!(
+            again.unreachable_count(),
+            0,
+            "{}: {:?}",
+            model.name,
+            report.suggestions
+        );
+    }
 }

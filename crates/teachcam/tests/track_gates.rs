@@ -261,3 +261,56 @@ fn a_tool_that_is_not_there_is_never_found() {
         points: 0,
     };
 }
+
+#[test]
+fn a_marker_a_little_beyond_the_distance_gate_gives_an_outlier_never_an_ok_pose() {
+    let rig = two_webcams();
+    let tool = triangle();
+    let pose = hand_poses(1, 4)[0];
+    let config = TrackConfig {
+        identify: IdentifyConfig {
+            distance_tolerance_mm: 1.0,
+        },
+        max_registration_rms_mm: 1.0,
+        ..TrackConfig::default()
+    };
+    let tracker = Tracker::new(&rig, &tool, config);
+    // Marker 2 seen `shift_mm` away from its place, away from marker 0 (a marker partly
+    // hidden moves its point like this): exact projections, so only the distances tell.
+    let frame_with = |shift_mm: f64| -> Views {
+        let m0 = pose * tool.markers_in_tool[0];
+        let m2 = pose * tool.markers_in_tool[2];
+        let moved = m2 + (m2 - m0).normalize() * shift_mm;
+        let mut views = Views::new();
+        for (id, camera) in rig.iter() {
+            let pixels = [
+                pose * tool.markers_in_tool[0],
+                pose * tool.markers_in_tool[1],
+                moved,
+            ]
+            .iter()
+            .filter_map(|p| camera.project(p))
+            .collect();
+            views.insert(id, pixels);
+        }
+        views
+    };
+    let truth = pose * tool.tip_in_tool();
+    // Within the gate: ok.
+    let track = tracker.track_frame(&frame_with(0.5));
+    assert_eq!(track.status(), Status::Ok, "{}", track.reason());
+    // Beyond the gate, within three times it: posed, an outlier saying why.
+    let track = tracker.track_frame(&frame_with(2.0));
+    assert_eq!(track.status(), Status::Outlier, "{}", track.reason());
+    assert!(track.reason().contains("widened 3x"), "{}", track.reason());
+    let posed = track.outcome.as_ref().unwrap();
+    assert_eq!(posed.markers, 3);
+    assert!((posed.tip_in_world - truth).norm() < 50.0);
+    // Beyond three times the gate: a gap.
+    let track = tracker.track_frame(&frame_with(5.0));
+    assert_eq!(track.status(), Status::Lost, "{}", track.reason());
+    assert!(matches!(
+        track.outcome,
+        Err(Lost::TooFewMarkers { identified: 2, .. })
+    ));
+}

@@ -130,20 +130,18 @@ pub struct IntrinsicsArgs {
 ///
 /// Example: `teachcam calibrate rig --pattern chessboard --inner 9x6 --square 40 calib/ --world table -o rig.json`
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("world_frame").required(true).multiple(false)))]
 pub struct RigArgs {
     #[command(flatten)]
     pub pattern: PatternArgs,
     /// Folder with one sub-folder of images per camera.
     pub images: PathBuf,
-    /// File stem of the view whose board sets the world frame.
-    #[arg(
-        long,
-        conflicts_with = "world_camera",
-        required_unless_present = "world_camera"
-    )]
+    /// File stem of the view whose board sets the world frame (the board lying on the work
+    /// object; `teachcam simulate --scenario calibration` names it `world`).
+    #[arg(long, group = "world_frame")]
     pub world: Option<String>,
     /// Or: this camera's frame is the world frame.
-    #[arg(long)]
+    #[arg(long, group = "world_frame")]
     pub world_camera: Option<String>,
     /// Known intrinsics of a camera, `NAME=FILE`; repeat per camera.
     #[arg(long, value_parser = parse_assignment)]
@@ -239,11 +237,83 @@ fn find_all(images: &[PathBuf], board: &Chessboard) -> Vec<Found> {
         .collect()
 }
 
+/// Refuses, before any work, an image that is not there or not of a format read here.
+fn check_image_file(path: &Path) -> anyhow::Result<()> {
+    if !path.is_file() {
+        return Err(anyhow!("{}: no such image file", path.display())).rejected();
+    }
+    match image::ImageFormat::from_path(path) {
+        Ok(image::ImageFormat::Png | image::ImageFormat::Jpeg) => Ok(()),
+        _ => Err(anyhow!(
+            "{}: not an image teachcam reads (expected a .png, .jpg or .jpeg file)",
+            path.display()
+        ))
+        .rejected(),
+    }
+}
+
 fn file_name(path: &Path) -> String {
     path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     )
+}
+
+/// Refuses, before any corner is searched, a `--world` view, a `--world-camera` or an
+/// `--intrinsics` camera that the folder does not hold, listing what it holds.
+fn check_rig_names(args: &RigArgs, folders: &[PathBuf]) -> anyhow::Result<()> {
+    let cameras: Vec<String> = folders.iter().map(|f| file_name(f)).collect();
+    let listed = |names: &[String]| -> String {
+        const SHOWN: usize = 12;
+        let mut text = names[..names.len().min(SHOWN)].join(", ");
+        if names.len() > SHOWN {
+            text.push_str(&format!(", … ({} in all)", names.len()));
+        }
+        text
+    };
+    for (name, file) in &args.intrinsics {
+        if !cameras.contains(name) {
+            return Err(anyhow!(
+                "--intrinsics {name}={}: no camera sub-folder {name} in {} (cameras: {})",
+                file.display(),
+                args.images.display(),
+                listed(&cameras)
+            ))
+            .rejected();
+        }
+    }
+    if let Some(camera) = &args.world_camera
+        && !cameras.contains(camera)
+    {
+        return Err(anyhow!(
+            "--world-camera {camera}: no camera sub-folder of that name in {} (cameras: {})",
+            args.images.display(),
+            listed(&cameras)
+        ))
+        .rejected();
+    }
+    if let Some(world) = &args.world {
+        let mut views: Vec<String> = folders
+            .iter()
+            .filter_map(|f| std::fs::read_dir(f).ok())
+            .flatten()
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .filter(|p| p.is_file())
+            .filter_map(|p| Some(p.file_stem()?.to_string_lossy().into_owned()))
+            .collect();
+        views.sort();
+        views.dedup();
+        if !views.contains(world) {
+            return Err(anyhow!(
+                "--world {world}: no image of that stem in {}'s camera folders (views: {})",
+                args.images.display(),
+                listed(&views)
+            ))
+            .rejected();
+        }
+    }
+    Ok(())
 }
 
 /// Keeps the first image's size in `size` and refuses an image of another size, naming both
@@ -281,6 +351,9 @@ fn run_intrinsics(args: &IntrinsicsArgs) -> anyhow::Result<()> {
     let inputs: Vec<&Path> = args.images.iter().map(PathBuf::as_path).collect();
     check_outputs(&[output], &inputs)?;
     let board = board_of(&args.pattern)?;
+    for path in &args.images {
+        check_image_file(path)?;
+    }
     let found = find_all(&args.images, &board);
     let mut views = Vec::new();
     let mut size: Option<(ImageSize, PathBuf)> = None;
@@ -395,6 +468,7 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
     if folders.is_empty() {
         return Err(anyhow!("{}: no camera sub-folders", args.images.display())).rejected();
     }
+    check_rig_names(args, &folders)?;
     let known: BTreeMap<&str, &PathBuf> = args
         .intrinsics
         .iter()

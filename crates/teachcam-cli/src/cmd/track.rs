@@ -52,7 +52,7 @@ mod time_offsets;
 /// has no pose, `tip_std_mm` (the frame's first-order tip uncertainty, scaled to the pixel
 /// error the recording's residuals show and grown with the frame's own residuals beyond the
 /// typical ones) and `status`: ok, degraded (a view dropped, fewer markers than the tool has),
-/// outlier (pose written, registration residual beyond the gate) or lost (no pose); the reason
+/// outlier (pose written, a registration or marker residual beyond the gate) or lost (no pose); the reason
 /// is in `--diagnostics`.
 ///
 /// Exit status: 0 when the tool was tracked, 1 for rejected data, 2 for usage, 3 when the tool

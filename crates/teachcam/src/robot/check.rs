@@ -200,6 +200,13 @@ pub enum Suggestion {
         /// The displacement in the robot's base frame, millimetres.
         by_in_base: Vec3,
     },
+    /// Use this work object instead (turned and placed in front of the arm), verified to make
+    /// every target reachable within the joint limits: for a world whose z points into the
+    /// table (a rig calibrated from a chessboard lying on it), or a stroke far from the arm.
+    UseWorkObject {
+        /// The work object in the robot's base frame, ready for `--wobj`.
+        base_from_wobj: crate::geometry::Pose,
+    },
 }
 
 impl std::fmt::Display for Suggestion {
@@ -212,6 +219,11 @@ impl std::fmt::Display for Suggestion {
                 f,
                 "move the work object by ({:.0}, {:.0}, {:.0}) mm in the robot's base frame",
                 by_in_base.x, by_in_base.y, by_in_base.z
+            ),
+            Self::UseWorkObject { base_from_wobj } => write!(
+                f,
+                "--wobj \"{}\" puts every frame in reach within the joint ranges (verified)",
+                crate::robot::pose_text(base_from_wobj)
             ),
         }
     }
@@ -287,13 +299,7 @@ pub fn check_path(
     targets: &[TcpTarget],
     config: &CheckConfig,
 ) -> CheckReport {
-    let turning = turning_axes(robot);
-    let candidates: Vec<Vec<IkSolution>> = targets
-        .iter()
-        .map(|t| path_candidates(robot, &turning, &cell.base_from_flange(&t.wobj_from_tcp)))
-        .collect();
-    let mut chosen = choose_along_path(robot, &turning, targets, &candidates, config);
-    let beyond_turns = unwrap_turning_axes(robot, &turning, &mut chosen);
+    let (chosen, beyond_turns) = choose_joints(robot, cell, targets, config);
     let mut frames = Vec::with_capacity(targets.len());
     let mut previous: Option<(usize, IkSolution)> = None;
     let mut previous_speed: Option<(usize, [f64; 6])> = None;
@@ -548,6 +554,41 @@ fn choose_along_path(
     chosen
 }
 
+/// The joint solution chosen for each target along the path (`None` where there is none in
+/// the limits), and the issue of a target taken out because a turning axis left its range.
+fn choose_joints(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+) -> (Vec<Option<IkSolution>>, Vec<Option<FrameIssue>>) {
+    let turning = turning_axes(robot);
+    let candidates: Vec<Vec<IkSolution>> = targets
+        .iter()
+        .map(|t| path_candidates(robot, &turning, &cell.base_from_flange(&t.wobj_from_tcp)))
+        .collect();
+    let mut chosen = choose_along_path(robot, &turning, targets, &candidates, config);
+    let beyond_turns = unwrap_turning_axes(robot, &turning, &mut chosen);
+    (chosen, beyond_turns)
+}
+
+/// True when the path has joints within the limits at every target: each target has a
+/// solution (quick) and the chosen path keeps every turning axis in its range.
+fn reachable_everywhere(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+) -> bool {
+    let each = targets.iter().all(|t| {
+        !inverse_within_limits(robot, &cell.base_from_flange(&t.wobj_from_tcp)).is_empty()
+    });
+    each && choose_joints(robot, cell, targets, config)
+        .0
+        .iter()
+        .all(Option::is_some)
+}
+
 /// The axes whose range spans a full turn or more (every angle has a copy inside it: each
 /// axis of a UR, axis 6 of the IRB 120 and of the KR 6). Along a path they move continuously,
 /// so their ±360° copies are not separate candidates: the path is chosen on their wrapped
@@ -653,6 +694,8 @@ fn suggestions(
     if report.unreachable_count() > 0 {
         if let Some(by_in_base) = work_object_move(robot, cell, targets, config) {
             out.push(Suggestion::MoveWorkObject { by_in_base });
+        } else if let Some(base_from_wobj) = work_object_placement(robot, cell, targets, config) {
+            out.push(Suggestion::UseWorkObject { base_from_wobj });
         }
     } else {
         let acceleration = report.peak_acceleration_ratio.unwrap_or(0.0).sqrt();
@@ -665,6 +708,55 @@ fn suggestions(
         }
     }
     out
+}
+
+/// A work object, turned and placed, for which every target has a solution within the
+/// limits: the current orientation composed with each of the turns a rig's world is usually
+/// off by (none, half a turn about x, y or z, a quarter turn about z), the targets' centroid
+/// placed at [`Robot::comfortable_point`] or up to 30 % of the reach below or 20 % above it.
+/// The first that passes, `None` when none does.
+fn work_object_placement(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+) -> Option<crate::geometry::Pose> {
+    use nalgebra::{UnitQuaternion, Vector3};
+    if targets.is_empty() {
+        return None;
+    }
+    let half = std::f64::consts::PI;
+    let quarter = std::f64::consts::FRAC_PI_2;
+    let turns = [
+        UnitQuaternion::identity(),
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), half),
+        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), half),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), half),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), quarter),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), -quarter),
+    ];
+    let centroid = targets
+        .iter()
+        .map(|t| t.wobj_from_tcp.translation.vector)
+        .sum::<Vec3>()
+        / targets.len() as f64;
+    let reach = robot.max_wrist_reach();
+    for turn in turns {
+        let rotation = cell.base_from_wobj.rotation * turn;
+        for height in [0.0, -0.1, -0.2, -0.3, 0.1, 0.2] {
+            let goal = robot.comfortable_point().coords + Vec3::new(0.0, 0.0, height * reach);
+            let base_from_wobj =
+                crate::geometry::pose_from_parts(goal - rotation * centroid, rotation);
+            let placed = Cell {
+                base_from_wobj,
+                ..*cell
+            };
+            if reachable_everywhere(robot, &placed, targets, config) {
+                return Some(base_from_wobj);
+            }
+        }
+    }
+    None
 }
 
 /// A translation of the work object, toward the arm's comfortable zone
@@ -698,10 +790,7 @@ fn work_object_move(
         let by = direction * moved;
         let mut moved_cell = *cell;
         moved_cell.base_from_wobj.translation.vector += by;
-        let all_reachable = targets.iter().all(|t| {
-            !inverse_within_limits(robot, &moved_cell.base_from_flange(&t.wobj_from_tcp)).is_empty()
-        });
-        if all_reachable {
+        if reachable_everywhere(robot, &moved_cell, targets, config) {
             return Some(by);
         }
         moved += step;
