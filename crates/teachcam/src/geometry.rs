@@ -251,7 +251,7 @@ pub enum PoseTextError {
     Shape(String),
     /// The quaternion is not of unit length.
     #[error(
-        "quaternion qw,qx,qy,qz of '{text}' has norm {norm:.6}; expected 1 within {QUATERNION_NORM_TOLERANCE} (written to 3 decimals is enough)"
+        "quaternion qw,qx,qy,qz of '{text}' has norm {norm:.6}: expected a unit quaternion, norm 1 within {QUATERNION_NORM_TOLERANCE} (3 decimals are enough)"
     )]
     NotUnit {
         /// The text given.
