@@ -33,9 +33,9 @@ use crate::progress::Progress;
 /// With `--rig` and a marker size (`--tool` or `--marker-diameter`), the size limits follow from
 /// each camera's focal length and `--near`/`--far`, and the `refined` centre is moved from the
 /// centre of the sphere's elliptical image to the projection of the sphere's centre.
-///
-/// Example: `teachcam detect rec -o detections.csv --rig rec/rig.json --tool rec/tool.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam detect rec -o detections.csv --rig rec/rig.json --tool rec/tool.json"#)]
 pub struct Args {
     /// Recording folder: one sub-folder of PNG frames or one video file per camera.
     pub recording: PathBuf,

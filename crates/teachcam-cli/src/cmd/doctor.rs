@@ -28,9 +28,10 @@ use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
 /// with advice: a camera that disagrees with the others (recalibrate it), a pair that
 /// disagrees, marker images too small (move closer), blobs less round than the cut (a
 /// `--min-roundness` value), a tool whose distances are not in the data.
-///
-/// Example: `teachcam doctor rec --rig rec/rig.json --tool rec/tool.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam doctor rec --rig rec/rig.json --tool rec/tool.json
+  teachcam doctor rec --rig rec/rig.json --tool rec/tool.json --json > doctor.json"#)]
 pub struct Args {
     /// Recording folder: one sub-folder of PNG frames or one video file per rig camera.
     pub recording: PathBuf,

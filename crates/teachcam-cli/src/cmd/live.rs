@@ -30,9 +30,10 @@ use crate::cmd::record::{parse_source, source_config, stop_requested};
 /// The simulator (`sim:paper`, the default) renders its frames ahead, before the clock starts,
 /// and plays them back and forth at `--fps`, so the numbers are the pipeline's, not the
 /// renderer's; its rig and tool are used unless `--rig`/`--tool` are given.
-///
-/// Example: `teachcam live --source sim:paper --fps 60 --seconds 10 --json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam live --source sim:paper --fps 60 --seconds 2 --json
+  teachcam live --source v4l2:/dev/video0,/dev/video2 --rig rig.json --tool rec/tool.json --seconds 10"#)]
 pub struct Args {
     /// Where frames come from: sim:SCENARIO, v4l2:DEVICE[,DEVICE...], folder:REC or a folder.
     #[arg(long, default_value = "sim:paper", value_parser = parse_source)]

@@ -24,9 +24,10 @@ use crate::Rejected;
 /// those of `filtfilt(*butter(N, HZ, fs=fs), x)` wherever that form is stable; HZ is the
 /// cut-off of one pass, as in scipy (the zero-phase result is at -6 dB there). A cut-off whose
 /// step response outlasts the record, or that double precision cannot hold, is refused.
-///
-/// Example: `teachcam smooth raw.csv --method lowpass --cutoff 10 -o smooth.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam smooth raw.csv --method lowpass --cutoff 10 -o smooth.csv
+  teachcam smooth raw.csv --method spline -o spline.csv"#)]
 pub struct Args {
     /// Trajectory CSV to smooth (as written by `teachcam track`).
     pub input: PathBuf,

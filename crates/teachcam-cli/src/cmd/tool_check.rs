@@ -14,9 +14,9 @@ use crate::Rejected;
 /// each other, against the identification tolerance), the expected tip error per unit marker
 /// error (Fitzpatrick–West–Maurer), and warnings. Prints JSON; exits 1 when the tool would be
 /// refused by `track`.
-///
-/// Example: `teachcam tool-check tool.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam tool-check rec/tool.json"#)]
 pub struct Args {
     /// Tool model (tool.json).
     pub tool: PathBuf,

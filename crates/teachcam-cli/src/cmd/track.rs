@@ -57,9 +57,10 @@ mod time_offsets;
 ///
 /// Exit status: 0 when the tool was tracked, 1 for rejected data, 2 for usage, 3 when the tool
 /// was not found in any frame (nothing is written then).
-///
-/// Example: `teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --diagnostics diag.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --markers-out markers.csv
+  teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --diagnostics diag.csv"#)]
 pub struct Args {
     /// Recording folder: one sub-folder of PNG frames or one video file (`cam0.avi`, any
     /// format FFmpeg reads) per rig camera; `timestamps.csv` beside them gives frame times.

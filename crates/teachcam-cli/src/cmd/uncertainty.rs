@@ -17,9 +17,10 @@ use crate::Rejected;
 /// triangulation, identification, registration). Prints JSON: `tip_std_mm` (x, y, z), `tip_rms_mm`,
 /// `position_std_mm`, `rotation_std_deg` (about world x, y, z), `failed_trials`, `tip_bias_mm`,
 /// and the closed-form first-order propagation of the same noise under `first_order`.
-///
-/// Example: `teachcam uncertainty --rig rig.json --tool tool.json --pose "0,0,190,1,0,0,0" --pixel-noise 0.15 --trials 10000`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam uncertainty --rig rec/rig.json --tool rec/tool.json --pose "0,0,190,1,0,0,0" --pixel-noise 0.15 --trials 10000
+  teachcam uncertainty --rig rec/rig.json --tool rec/tool.json --pose "0,0,190,1,0,0,0" --pixel-noise 0.15 --camera-dropped cam1"#)]
 pub struct Args {
     /// Camera rig (rig.json).
     #[arg(long)]

@@ -16,9 +16,9 @@ use crate::Rejected;
 /// and with the worst single camera left out: where to work, where not. Writes CSV
 /// `x_mm,y_mm,z_mm,tip_rms_mm,tip_rms_one_camera_dropped_mm` (empty where the tool cannot be
 /// tracked).
-///
-/// Example: `teachcam uncertainty-map --rig rig.json --tool tool.json --pose "0,0,180,1,0,0,0" --half-width 300 --step 25 -o map.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam uncertainty-map --rig rec/rig.json --tool rec/tool.json --pose "0,0,180,1,0,0,0" --half-width 300 --step 25 -o map.csv"#)]
 pub struct Args {
     /// Camera rig (rig.json).
     #[arg(long)]
