@@ -121,6 +121,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         gates: super::track::GateFlags::default(),
         time_offsets: None,
         time_offsets_out: None,
+        detections: None,
     })?;
     timed("detect + track", start);
     let raw = read_trajectory(&raw_path)?;

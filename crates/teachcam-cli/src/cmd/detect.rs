@@ -1,6 +1,5 @@
 //! `teachcam detect`: marker blobs with sub-pixel centres in every frame of a recording.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use std::collections::BTreeMap;
@@ -28,7 +27,8 @@ use crate::progress::Progress;
 ///
 /// Output columns: `camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak`
 /// (camera = the sub-folder's or video's name, frame = 0-based index, centre in OpenCV pixels, radius of
-/// the equal-flux disc, predicted centre noise per axis).
+/// the equal-flux disc, predicted centre noise per axis), every number to the last bit so that
+/// `teachcam track --detections` tracks these very blobs.
 ///
 /// With `--rig` and a marker size (`--tool` or `--marker-diameter`), the size limits follow from
 /// each camera's focal length and `--near`/`--far`, and the `refined` centre is moved from the
@@ -253,40 +253,12 @@ pub fn detect_folder(
 
 /// The CSV text of the detections.
 fn csv_text(recording: &DetectedRecording) -> String {
-    let mut text =
-        String::from("camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak\n");
-    for f in recording
-        .sets
-        .iter()
-        .flat_map(|s| s.cameras.iter().flatten())
-    {
-        let camera = csv_field(&f.camera);
-        for b in &f.blobs {
-            // Writing to a String cannot fail.
-            let _ = writeln!(
-                text,
-                "{camera},{},{:.4},{:.4},{:.3},{},{:.3},{:.4},{}",
-                f.frame,
-                b.center.x,
-                b.center.y,
-                b.radius_px,
-                b.area_px,
-                b.roundness,
-                b.center_std_px,
-                b.peak
-            );
-        }
-    }
-    text
-}
-
-/// A CSV field, quoted when it holds a comma, a quote or a line break.
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
+    teachcam::io::detections::detections_csv(
+        recording
+            .sets
+            .iter()
+            .flat_map(|s| s.cameras.iter().flatten()),
+    )
 }
 
 /// Run the command.
