@@ -14,6 +14,7 @@ use clap::{Parser, Subcommand};
 mod announce;
 mod cmd;
 mod flags;
+mod load;
 mod plot;
 mod progress;
 

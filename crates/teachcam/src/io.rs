@@ -7,6 +7,7 @@
 pub mod camera_file;
 pub mod detections;
 pub mod output;
+pub mod plausible;
 pub mod recording;
 pub mod rig;
 pub mod robot;

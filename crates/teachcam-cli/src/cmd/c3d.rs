@@ -186,7 +186,7 @@ fn run_export(args: &ExportArgs) -> anyhow::Result<()> {
     inputs.extend(args.measured.as_deref());
     check_outputs(&[output], &inputs)?;
     let trajectory = teachcam::io::trajectory::read_trajectory(&args.trajectory).rejected()?;
-    let tool = teachcam::io::tool::read_tool(&args.tool).rejected()?;
+    let tool = crate::load::tool(&args.tool)?;
     let points = match &args.measured {
         None => c3d::points_from_trajectory(&trajectory, &tool),
         Some(path) => {

@@ -106,6 +106,7 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         base_from_wobj: parse_pose(&args.wobj, "--wobj")?,
         flange_from_tcp: parse_pose(&args.tcp, "--tcp")?,
     };
+    crate::load::check_tcp(&cell.flange_from_tcp);
     if !(args.speed_fraction > 0.0 && args.speed_fraction <= 1.0) {
         bail!(
             "--speed-fraction {}: must be in (0, 1]",
@@ -113,12 +114,7 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         );
     }
     let tip_rotation = match &args.tool {
-        Some(path) => {
-            teachcam::io::tool::read_tool(path)
-                .rejected()?
-                .tool_from_tcp
-                .rotation
-        }
+        Some(path) => crate::load::tool(path)?.tool_from_tcp.rotation,
         None => UnitQuaternion::identity(),
     };
     let mut trajectory = read_trajectory(trajectory).rejected()?;

@@ -8,7 +8,7 @@ use anyhow::Context;
 use teachcam::camera::Rig;
 use teachcam::detect::{Blob, CenterMethod, DetectConfig, Threshold};
 use teachcam::geometry::CameraId;
-use teachcam::io::{Output, check_outputs, rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::io::{Output, check_outputs, write_atomically};
 use teachcam::pipeline::{CameraSetup, DetectStream, DetectedSet};
 use teachcam::source::folder::FolderSource;
 use teachcam::source::{FrameSource, SourceCamera};
@@ -115,7 +115,7 @@ pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result
         ));
     }
     let diameter_mm = match (&args.tool, args.marker_diameter) {
-        (Some(tool), _) => Some(read_tool(tool).rejected()?.marker_diameter_mm),
+        (Some(tool), _) => Some(crate::load::tool(tool)?.marker_diameter_mm),
         (None, Some(d)) if d.is_finite() && d > 0.0 => Some(d),
         (None, Some(d)) => {
             return Err(anyhow::anyhow!(
@@ -127,7 +127,7 @@ pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result
     let rig: Option<Rig> = args
         .rig
         .as_deref()
-        .map(|path| read_rig(path).rejected())
+        .map(|path| crate::load::rig(path))
         .transpose()?;
     cameras
         .iter()

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::bail;
 use teachcam::c3d::{self, MarkerSelection, PointData, ToolFromDataConfig, TrackMarkersConfig};
 use teachcam::identify::IdentifyConfig;
-use teachcam::io::tool::{read_tool, tool_json};
+use teachcam::io::tool::tool_json;
 use teachcam::io::trajectory::trajectory_text;
 use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::vendor;
@@ -148,14 +148,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (tool, selection) = match (&args.tool, columns.is_empty()) {
         (None, true) => bail!("give --tool, --markers or both (see --help)"),
         (Some(path), true) => {
-            let tool = read_tool(path).rejected()?;
+            let tool = crate::load::tool(path)?;
             let identify = IdentifyConfig {
                 distance_tolerance_mm: args.identify_tolerance_mm,
             };
             (tool, MarkerSelection::Identify(identify))
         }
         (Some(path), false) => {
-            let tool = read_tool(path).rejected()?;
+            let tool = crate::load::tool(path)?;
             (tool, MarkerSelection::Labels(columns))
         }
         (None, false) => {

@@ -112,7 +112,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.gain,
     );
     let (rig, tool) = match (&args.source, &args.rig, &args.tool) {
-        (_, Some(rig), Some(tool)) => (read_rig(rig).rejected()?, read_tool(tool).rejected()?),
+        (_, Some(rig), Some(tool)) => (crate::load::rig(rig)?, crate::load::tool(tool)?),
         (SourceSpec::Sim(scenario), rig, tool) => {
             let scene = teachcam::source::sim::scene(*scenario, &config.sim);
             (

@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use teachcam::io::tool::read_tool;
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::io::{Output, check_outputs};
 use teachcam::smooth::spline::SplineEnds;
@@ -134,7 +133,7 @@ pub fn run(args: &Args) -> Result<()> {
         ..SmoothConfig::default()
     };
     if let Some(path) = &args.tool {
-        config.tip_in_tool = Some(read_tool(path).rejected()?.tip_in_tool());
+        config.tip_in_tool = Some(crate::load::tool(path)?.tip_in_tool());
     }
     config.method = match args.method {
         MethodName::Lowpass => {

@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use teachcam::identify::IdentifyConfig;
-use teachcam::io::tool::read_tool;
 use teachcam::metrology::tool_design;
 
 use crate::Rejected;
@@ -27,7 +26,7 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let tool = read_tool(&args.tool).rejected()?;
+    let tool = crate::load::tool(&args.tool)?;
     let design = tool_design(&tool, args.tolerance_mm);
     println!("{}", serde_json::to_string_pretty(&design)?);
     let config = IdentifyConfig {

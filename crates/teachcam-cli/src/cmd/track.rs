@@ -10,7 +10,7 @@ use teachcam::identify::{IdentifyConfig, check_identifiable};
 use teachcam::io::detections::read_detections;
 use teachcam::io::recording::DEFAULT_FPS;
 use teachcam::io::trajectory::trajectory_text;
-use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
+use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::pipeline::{CameraDetections, CameraSetup, DetectedSet};
 use teachcam::source::folder::{RecordingClock, recording_clock};
 use teachcam::sync::ResampleIssue;
@@ -269,8 +269,8 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     inputs.extend(args.detections.as_deref());
     check_outputs(&outputs, &inputs)?;
     let overrides = args.gates.overrides();
-    let rig = read_rig(&args.rig).rejected()?;
-    let tool = read_tool(&args.tool).rejected()?;
+    let rig = crate::load::rig(&args.rig)?;
+    let tool = crate::load::tool(&args.tool)?;
     if let Some(tolerance) = overrides.distance_tolerance_mm {
         check_identifiable(
             &tool,

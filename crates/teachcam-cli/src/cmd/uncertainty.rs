@@ -4,7 +4,6 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use teachcam::geometry::parse_pose;
-use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::metrology::{first_order, monte_carlo};
 use teachcam::track::TrackConfig;
 
@@ -48,8 +47,8 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let mut rig = read_rig(&args.rig).rejected()?;
-    let tool = read_tool(&args.tool).rejected()?;
+    let mut rig = crate::load::rig(&args.rig)?;
+    let tool = crate::load::tool(&args.tool)?;
     let pose = parse_pose(&args.pose).context("--pose")?;
     if let Some(name) = &args.camera_dropped {
         let before = rig.cameras.len();

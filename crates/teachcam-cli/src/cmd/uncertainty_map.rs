@@ -5,10 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use teachcam::geometry::{Point3, parse_pose};
-use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::io::write_atomically;
 use teachcam::metrology::uncertainty_map;
-
-use crate::Rejected;
 
 /// Tip uncertainty over a grid of the working volume: where to work, where not.
 ///
@@ -49,8 +47,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         &[teachcam::io::Output::csv(&args.output)],
         &[&args.rig, &args.tool],
     )?;
-    let rig = read_rig(&args.rig).rejected()?;
-    let tool = read_tool(&args.tool).rejected()?;
+    let rig = crate::load::rig(&args.rig)?;
+    let tool = crate::load::tool(&args.tool)?;
     let centre = parse_pose(&args.pose).context("--pose")?;
     if !(args.step > 0.0 && args.half_width >= 0.0 && args.half_width / args.step <= 500.0) {
         anyhow::bail!(
