@@ -1,6 +1,7 @@
-//! `teachcam calibrate intrinsics|rig|wand`: chessboard photographs to a camera or a whole rig;
-//! a wand dance to a rig ([`wand`]).
+//! `teachcam calibrate intrinsics|rig|wand|refine`: chessboard photographs to a camera or a
+//! whole rig; a wand dance to a rig ([`wand`]); a rig refined from any recording ([`refine`]).
 
+mod refine;
 mod wand;
 
 use std::collections::BTreeMap;
@@ -44,6 +45,7 @@ pub enum Calibrate {
     Intrinsics(IntrinsicsArgs),
     Rig(RigArgs),
     Wand(wand::WandArgs),
+    Refine(refine::RefineArgs),
 }
 
 /// The calibration target.
@@ -194,6 +196,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Calibrate::Intrinsics(a) => run_intrinsics(a),
         Calibrate::Rig(a) => run_rig(a),
         Calibrate::Wand(a) => wand::run_wand(a),
+        Calibrate::Refine(a) => refine::run_refine(a),
     }
 }
 
