@@ -403,8 +403,12 @@ pub fn detect_for_tracking(
         rig.cameras
             .iter()
             .map(|camera| {
-                let mut detect =
-                    DetectConfig::for_marker(camera, tool.marker_diameter_mm, flags.near, flags.far);
+                let mut detect = DetectConfig::for_marker(
+                    camera,
+                    tool.marker_diameter_mm,
+                    flags.near,
+                    flags.far,
+                );
                 detect.method = flags.method;
                 detect.min_roundness = min_roundness;
                 if let Some(t) = flags.threshold {

@@ -510,12 +510,7 @@ impl<P> Adjusted<P> {
         body: &B,
         params: &[CameraParams],
     ) -> Vec<CameraFit> {
-        let images: usize = self
-            .frames
-            .iter()
-            .flatten()
-            .map(|v| v.pixels.len())
-            .sum();
+        let images: usize = self.frames.iter().flatten().map(|v| v.pixels.len()).sum();
         let cameras = params.len();
         let unknowns = 6 * (cameras.saturating_sub(1)) + D * self.frames.len();
         let sigma2 = self.report.final_cost / (2 * images).saturating_sub(unknowns).max(1) as f64;
@@ -536,13 +531,9 @@ impl<P> Adjusted<P> {
                 let mut frames = 0;
                 for (views, pose) in self.frames.iter().zip(&self.state.bodies) {
                     for v in views.iter().filter(|v| v.camera == c) {
-                        if let Some(cost) = view_cost(
-                            body,
-                            &params[c],
-                            &self.state.camera_from_world[c],
-                            pose,
-                            v,
-                        ) {
+                        if let Some(cost) =
+                            view_cost(body, &params[c], &self.state.camera_from_world[c], pose, v)
+                        {
                             sum += cost;
                             markers += v.pixels.len();
                             frames += 1;

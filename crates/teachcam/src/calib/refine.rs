@@ -24,13 +24,14 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::{Isometry3, SMatrix, SVector, Vector3};
+use nalgebra::{Isometry3, SMatrix, SVector, Vector2, Vector3};
 
 use super::bundle::{AdjustError, Body, BundleState, GateConfig, View, adjust_gated};
 use super::intrinsics::{CameraParams, params_of, point_d_pose};
 use super::lm::LmConfig;
-use crate::camera::{Rig, epipolar_line, fundamental_matrix};
-use crate::geometry::{CameraId, Point3, Pose, rotation_angle_between};
+use crate::camera::{Rig, epipolar_line, fundamental_matrix, pixel_difference};
+use crate::correspond::Views;
+use crate::geometry::{CameraId, Pixel, Point3, Pose, rotation_angle_between};
 use crate::tool::Tool;
 use crate::track::FrameTrack;
 use crate::trajectory::Status;
@@ -78,6 +79,18 @@ pub struct RefineConfig {
     pub settled_deg: f64,
     /// ... and millimetres ends the rounds: 0.01 mm.
     pub settled_mm: f64,
+    /// Confident frames each camera must see: 10 (its 6 unknowns from at least 30 marker
+    /// images).
+    pub min_camera_frames: usize,
+    /// A camera missing from a confident frame (its views left out by triangulation or
+    /// correspondence: the bumped camera) gets its blobs back when they sit within this
+    /// fraction of its image width of where the other cameras put the markers: 0.05 (64 px on
+    /// 1280 px, about 2° at a 1790 px focal length).
+    pub max_offset_fraction: f64,
+    /// ... and every marker's blob is offset like the others within this many pixels: 3 (a
+    /// bump turns the camera, which shifts a tool's few-centimetre image almost uniformly),
+    /// with no second blob that close.
+    pub offset_agreement_px: f64,
     /// The adjustment's optimiser.
     pub lm: LmConfig,
 }
@@ -93,6 +106,9 @@ impl Default for RefineConfig {
             max_rounds: 3,
             settled_deg: 0.002,
             settled_mm: 0.01,
+            min_camera_frames: 10,
+            max_offset_fraction: 0.05,
+            offset_agreement_px: 3.0,
             lm: LmConfig::default(),
         }
     }
@@ -116,6 +132,18 @@ pub enum RefineError {
     TooFewFrames {
         /// Confident frames found.
         found: usize,
+        /// Frames needed.
+        needed: usize,
+    },
+    /// A camera sees the tool in too few confident frames.
+    #[error(
+        "camera {camera} sees the tool in {frames} confident frames; refinement needs {needed} per camera"
+    )]
+    CameraUnseen {
+        /// The camera's name.
+        camera: String,
+        /// Confident frames it sees.
+        frames: usize,
         /// Frames needed.
         needed: usize,
     },
@@ -143,7 +171,7 @@ pub struct ConfidentFrame {
     /// The tool's pose through the rig it was tracked with.
     pub world_from_tool: Pose,
     /// Per camera, the identified markers it saw: `(marker index, distorted pixel)`.
-    pub views: BTreeMap<CameraId, Vec<(usize, crate::geometry::Pixel)>>,
+    pub views: BTreeMap<CameraId, Vec<(usize, Pixel)>>,
 }
 
 /// The frames whose identification is confident: a pose that is not an outlier, every marker
@@ -163,8 +191,7 @@ pub fn confident_views(tool: &Tool, tracks: &[FrameTrack]) -> Vec<ConfidentFrame
             if !confident {
                 return None;
             }
-            let mut views: BTreeMap<CameraId, Vec<(usize, crate::geometry::Pixel)>> =
-                BTreeMap::new();
+            let mut views: BTreeMap<CameraId, Vec<(usize, Pixel)>> = BTreeMap::new();
             for (marker, point) in &track.labels {
                 let point = track.points.get(*point)?;
                 if point.views.len() < 2 {
@@ -244,6 +271,73 @@ pub struct Refinement {
     pub converged: bool,
 }
 
+/// Gives each camera missing from a confident frame its blobs back (`blobs`: the frame's
+/// blob centres by camera, as tracked): the tool's markers at the frame's pose projected into
+/// the camera, each one's nearest blob within [`RefineConfig::max_offset_fraction`] of the
+/// image width, their median offset, then each marker's blob within
+/// [`RefineConfig::offset_agreement_px`] of its projection plus that offset, one blob each and
+/// no second one as close. A camera whose markers do not all match stays missing.
+fn recover_views(
+    rig: &Rig,
+    tool: &Tool,
+    frame: &mut ConfidentFrame,
+    blobs: &Views,
+    config: &RefineConfig,
+) {
+    for (id, camera) in rig.iter() {
+        if frame.views.contains_key(&id) {
+            continue;
+        }
+        let Some(blobs) = blobs.get(&id) else {
+            continue;
+        };
+        let projected: Vec<Pixel> = tool
+            .markers_in_tool
+            .iter()
+            .filter_map(|m| camera.project(&frame.world_from_tool.transform_point(m)))
+            .collect();
+        if projected.len() != tool.markers_in_tool.len() || blobs.len() < projected.len() {
+            continue;
+        }
+        let max_offset = config.max_offset_fraction * f64::from(camera.image_size.width);
+        let nearest = |at: &Pixel| -> Option<Vector2<f64>> {
+            blobs
+                .iter()
+                .map(|b| pixel_difference(b, at))
+                .min_by(|a, b| a.norm().total_cmp(&b.norm()))
+                .filter(|d| d.norm() <= max_offset)
+        };
+        let offsets: Option<Vec<Vector2<f64>>> = projected.iter().map(nearest).collect();
+        let Some(offsets) = offsets else {
+            continue;
+        };
+        let median = |axis: usize| {
+            let mut v: Vec<f64> = offsets.iter().map(|o| o[axis]).collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let offset = Vector2::new(median(0), median(1));
+        let mut matched: Vec<(usize, Pixel)> = Vec::new();
+        for (marker, at) in projected.iter().enumerate() {
+            let expected = Pixel::new(at.x + offset.x, at.y + offset.y);
+            let close: Vec<&Pixel> = blobs
+                .iter()
+                .filter(|b| pixel_difference(b, &expected).norm() <= config.offset_agreement_px)
+                .collect();
+            if let [blob] = close.as_slice()
+                && !matched.iter().any(|(_, p)| p == *blob)
+            {
+                matched.push((marker, **blob));
+            } else {
+                break;
+            }
+        }
+        if matched.len() == projected.len() {
+            frame.views.insert(id, matched);
+        }
+    }
+}
+
 /// Per camera pair `(a < b)`, the marker images both saw, as ideal pixels through `rig`, and
 /// the median distance from the epipolar line.
 fn pair_medians(rig: &Rig, frames: &[ConfidentFrame]) -> BTreeMap<(usize, usize), (usize, f64)> {
@@ -268,7 +362,10 @@ fn pair_medians(rig: &Rig, frames: &[ConfidentFrame]) -> BTreeMap<(usize, usize)
                         .copied()
                         .unwrap_or_else(|| fundamental_matrix(ca, cb));
                     if let Some(line) = epipolar_line(&f, &ia) {
-                        distances.entry((a.0, b.0)).or_default().push(line.distance(&ib));
+                        distances
+                            .entry((a.0, b.0))
+                            .or_default()
+                            .push(line.distance(&ib));
                     }
                 }
             }
@@ -366,10 +463,9 @@ fn adjust_once(
     Ok(adjusted)
 }
 
-/// Refines `rig`'s extrinsics (intrinsics held) from a recording of `tool`: `track(rig,
-/// round)` tracks the whole recording through `rig` (round 0 with the gates widened, later
-/// rounds with the gates measured through the moved rig), and the rounds run as the module
-/// says.
+/// Refines `rig`'s extrinsics (intrinsics held) from a recording of `tool` whose blob centres
+/// are `blobs` (per frame, by camera): `track(rig, round)` tracks every frame of it through
+/// `rig` (one track per frame, in order), and the rounds run as the module says.
 ///
 /// # Errors
 /// [`RefineError`]: the tool never posed, too few confident frames, an unknown held camera, an
@@ -377,6 +473,7 @@ fn adjust_once(
 pub fn refine_rig(
     rig: &Rig,
     tool: &Tool,
+    blobs: &[Views],
     config: &RefineConfig,
     mut track: impl FnMut(&Rig, usize) -> Vec<FrameTrack>,
 ) -> Result<Refinement, RefineError> {
@@ -408,13 +505,28 @@ pub fn refine_rig(
                 frames: tracks.len(),
             });
         }
-        let frames = confident_views(tool, &tracks);
+        let mut frames = confident_views(tool, &tracks);
         confident_per_round.push(frames.len());
         if frames.len() < config.min_frames {
             return Err(RefineError::TooFewFrames {
                 found: frames.len(),
                 needed: config.min_frames,
             });
+        }
+        for frame in &mut frames {
+            if let Some(views) = blobs.get(frame.frame) {
+                recover_views(&current, tool, frame, views, config);
+            }
+        }
+        for (id, camera) in current.iter() {
+            let seen = frames.iter().filter(|f| f.views.contains_key(&id)).count();
+            if seen < config.min_camera_frames {
+                return Err(RefineError::CameraUnseen {
+                    camera: camera.name.clone(),
+                    frames: seen,
+                    needed: config.min_camera_frames,
+                });
+            }
         }
         let hold = *held.get_or_insert_with(|| best_agreeing(&current, &frames));
         let adjusted = adjust_once(&current, &params, &body, &frames, hold, config)?;

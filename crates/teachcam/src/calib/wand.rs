@@ -41,9 +41,9 @@ use crate::camera::Rig;
 use crate::geometry::{CameraId, Pixel, Point3, Pose};
 use crate::triangulate::{TriangulateConfig, triangulate};
 
+use super::bundle::{AdjustError, BundleState, GateConfig, View, adjust_gated};
 use super::intrinsics::{CameraParams, params_of};
 use super::lm::LmConfig;
-use super::bundle::{AdjustError, BundleState, GateConfig, View, adjust_gated};
 use bundle::{WandBody, WandPose};
 use essential::{PairFrame, relative_pose};
 
@@ -375,8 +375,7 @@ pub fn calibrate_wand(
     let adjusted =
         adjust_gated(&body, &params, frames, start, 0, &gate, &config.lm).map_err(|e| match e {
             AdjustError::BadStart => WandError::Bundle {
-                message: "the residuals are undefined at the start (a wand behind a camera)"
-                    .into(),
+                message: "the residuals are undefined at the start (a wand behind a camera)".into(),
             },
             AdjustError::TooFewFrames { found } => WandError::TooFewFrames {
                 found,

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, anyhow};
 use rayon::prelude::*;
-use teachcam::calib::refine::{RefineConfig, Refinement, refine_rig};
+use teachcam::calib::refine::{RefineConfig, Refinement, confident_views, refine_rig};
 use teachcam::camera::Rig;
 use teachcam::correspond::Views;
 use teachcam::detect::CenterMethod;
@@ -23,9 +23,9 @@ use crate::cmd::track::{
 /// Refine the rig's extrinsics from a recording of a tool (a bumped camera mended from the
 /// footage itself).
 ///
-/// Tracks the recording through the rig (the first round with the epipolar and triangulation
-/// gates widened to 3x their ceilings, since a bumped camera loses most frames at the measured
-/// gates), takes the frames whose identification is confident (every marker identified in two
+/// Tracks the recording through the rig with the gates measured through it (in the first round,
+/// when that leaves too few frames, again with the epipolar and triangulation gates widened to
+/// 3x their ceilings: a camera bumped further loses most frames at the measured gates), takes the frames whose identification is confident (every marker identified in two
 /// or more cameras, no rival labelling, a unique correspondence), and adjusts every camera's
 /// extrinsics and every such frame's tool pose together, the tool's marker geometry exact
 /// (it fixes the scale), intrinsics held as given; then tracks again through the moved rig, a
@@ -140,10 +140,16 @@ pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
         max_rounds: args.rounds as usize,
         ..RefineConfig::default()
     };
-    let track = |through: &Rig, round: usize| -> Vec<FrameTrack> {
-        track_round(through, &tool, &views, &sampled, &detected.min_roundness, &overrides, round)
+    let rounds = Rounds {
+        tool: &tool,
+        views: &views,
+        sampled: &sampled,
+        min_roundness: &detected.min_roundness,
+        overrides,
+        min_frames: config.min_frames,
     };
-    let result = refine_rig(&rig, &tool, &config, track)
+    let track = |through: &Rig, round: usize| rounds.track(through, round);
+    let result = refine_rig(&rig, &tool, &views, &config, track)
         .with_context(|| format!("{}: refine", args.recording.display()))
         .rejected()?;
     print_result(&result);
@@ -163,25 +169,52 @@ pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Tracks every frame through `rig`: gates measured from `sampled` through it, round 0 with
-/// the epipolar and triangulation gates widened unless the user set them.
-fn track_round(
-    rig: &Rig,
-    tool: &teachcam::tool::Tool,
-    views: &[Views],
-    sampled: &[Views],
-    min_roundness: &teachcam::track::gates::Gate,
-    overrides: &GateOverrides,
-    round: usize,
-) -> Vec<FrameTrack> {
-    let mut overrides = overrides.clone();
-    if round == 0 {
-        overrides.epipolar_tolerance_px = overrides.epipolar_tolerance_px.or(Some(WIDE_EPIPOLAR_PX));
-        overrides.max_residual_px = overrides.max_residual_px.or(Some(WIDE_RESIDUAL_PX));
+/// What every round tracks: the detected recording and the gates' inputs.
+struct Rounds<'a> {
+    tool: &'a teachcam::tool::Tool,
+    views: &'a [Views],
+    sampled: &'a [Views],
+    min_roundness: &'a teachcam::track::gates::Gate,
+    overrides: GateOverrides,
+    min_frames: usize,
+}
+
+impl Rounds<'_> {
+    /// Every frame tracked through `rig` with the gates measured from `sampled` through it;
+    /// in round 0, when that leaves fewer than `min_frames` confident frames (a camera bumped
+    /// beyond what the measured gates' ceilings absorb), again with the epipolar and
+    /// triangulation gates widened (unless the user set them), keeping the pass with more
+    /// confident frames.
+    fn track(&self, rig: &Rig, round: usize) -> Vec<FrameTrack> {
+        let pass = |overrides: &GateOverrides| -> Vec<FrameTrack> {
+            let gates = measure_gates(
+                rig,
+                self.tool,
+                self.sampled,
+                self.min_roundness.clone(),
+                overrides,
+            );
+            let tracker = Tracker::new(rig, self.tool, gates.track_config());
+            self.views
+                .par_iter()
+                .map(|v| tracker.track_frame(v))
+                .collect()
+        };
+        let measured = pass(&self.overrides);
+        let confident = |tracks: &[FrameTrack]| confident_views(self.tool, tracks).len();
+        if round > 0 || confident(&measured) >= self.min_frames {
+            return measured;
+        }
+        let mut wide = self.overrides;
+        wide.epipolar_tolerance_px = wide.epipolar_tolerance_px.or(Some(WIDE_EPIPOLAR_PX));
+        wide.max_residual_px = wide.max_residual_px.or(Some(WIDE_RESIDUAL_PX));
+        let widened = pass(&wide);
+        if confident(&widened) > confident(&measured) {
+            widened
+        } else {
+            measured
+        }
     }
-    let gates = measure_gates(rig, tool, sampled, min_roundness.clone(), &overrides);
-    let tracker = Tracker::new(rig, tool, gates.track_config());
-    views.par_iter().map(|v| tracker.track_frame(v)).collect()
 }
 
 /// What moved, σ, epipolar distances before and after.
@@ -202,7 +235,7 @@ fn print_result(result: &Refinement) {
     );
     for c in &result.cameras {
         println!(
-            "{}: moved {:.3} mm, turned {:.4}°; {} frames ({} dropped), rms {:.3} px, centre ± {:.3} mm, rotation ± {:.4}° (intrinsics taken as exact)",
+            "{}: moved {:.3} mm, turned {:.4}°; {} frames ({} dropped), rms {:.3} px, centre ± {:.4} mm, rotation ± {:.5}° (intrinsics taken as exact)",
             c.name,
             c.moved_mm,
             c.turned_deg,
