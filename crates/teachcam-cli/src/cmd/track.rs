@@ -82,21 +82,8 @@ pub struct Args {
     /// the gates beside it (`<stem>.gates.json`).
     #[arg(long)]
     pub diagnostics: Option<PathBuf>,
-    /// Frames per second (overrides recording.json; default 30).
-    #[arg(long, value_parser = crate::flags::fps)]
-    pub fps: Option<f64>,
-    /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
-    #[arg(long, default_value = "refined")]
-    pub method: CenterMethod,
-    /// Fixed detection threshold in the images' units (default: automatic per frame).
-    #[arg(long)]
-    pub threshold: Option<u32>,
-    /// Nearest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
-    pub near: f64,
-    /// Farthest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
-    pub far: f64,
+    #[command(flatten)]
+    pub detect: DetectFlags,
     /// Gates fixed by hand (default: measured from the recording).
     #[command(flatten)]
     pub gates: GateFlags,
@@ -271,13 +258,7 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         &args.recording,
         &rig,
         &tool,
-        &DetectFlags {
-            fps: args.fps,
-            method: args.method,
-            threshold: args.threshold,
-            near: args.near,
-            far: args.far,
-        },
+        &args.detect,
         overrides.min_roundness,
     )?;
     let (recording, min_roundness) = (detected.recording, detected.min_roundness);
@@ -357,17 +338,22 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
 }
 
 /// The detector's options `track` and `calibrate refine` share.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, clap::Args)]
 pub struct DetectFlags {
-    /// `--fps`.
+    /// Frames per second (overrides recording.json; default 30).
+    #[arg(long, value_parser = crate::flags::fps)]
     pub fps: Option<f64>,
-    /// `--method`.
+    /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
+    #[arg(long, default_value = "refined")]
     pub method: CenterMethod,
-    /// `--threshold`.
+    /// Fixed detection threshold in the images' units (default: automatic per frame).
+    #[arg(long)]
     pub threshold: Option<u32>,
-    /// `--near`, millimetres.
+    /// Nearest distance from a camera to a marker, millimetres.
+    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
     pub near: f64,
-    /// `--far`, millimetres.
+    /// Farthest distance from a camera to a marker, millimetres.
+    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
     pub far: f64,
 }
 

@@ -8,7 +8,6 @@ use rayon::prelude::*;
 use teachcam::calib::refine::{RefineConfig, Refinement, confident_views, refine_rig};
 use teachcam::camera::Rig;
 use teachcam::correspond::Views;
-use teachcam::detect::CenterMethod;
 use teachcam::io::rig::{CameraStdFile, read_rig, write_rig_with_std};
 use teachcam::io::tool::read_tool;
 use teachcam::io::{Output, check_outputs};
@@ -55,21 +54,8 @@ pub struct RefineArgs {
     /// Rounds of track → adjust at most (they stop earlier when nothing moves).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=10))]
     pub rounds: u32,
-    /// Frame rate when the recording does not say (as `track`).
-    #[arg(long, value_parser = crate::flags::fps)]
-    pub fps: Option<f64>,
-    /// Blob centre method (as `track`).
-    #[arg(long, default_value = "refined")]
-    pub method: CenterMethod,
-    /// Fixed detection threshold, grey levels (as `track`; default: per image).
-    #[arg(long)]
-    pub threshold: Option<u32>,
-    /// Nearest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
-    pub near: f64,
-    /// Farthest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
-    pub far: f64,
+    #[command(flatten)]
+    pub detect: DetectFlags,
     #[command(flatten)]
     pub gates: GateFlags,
 }
@@ -121,13 +107,7 @@ pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
         &args.recording,
         &rig,
         &tool,
-        &DetectFlags {
-            fps: args.fps,
-            method: args.method,
-            threshold: args.threshold,
-            near: args.near,
-            far: args.far,
-        },
+        &args.detect,
         overrides.min_roundness,
     )?;
     let (views, _) = views_of(&rig, &detected.recording);
