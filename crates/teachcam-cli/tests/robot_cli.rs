@@ -106,11 +106,22 @@ fn too_far_is_reported_frame_by_frame_with_exit_status_1() {
         stdout.contains("frame 0 (t = 0.000 s): out of reach"),
         "{stdout}"
     );
-    assert!(
-        stdout.contains("suggestion: move the work object"),
-        "{stdout}"
-    );
     assert!(text(&out.stderr).contains("stroke.csv"));
+    // The suggestion is a --wobj to paste, and pasted it passes.
+    let wobj = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("suggestion: --wobj \""))
+        .and_then(|rest| rest.split('"').next())
+        .unwrap_or_else(|| panic!("no --wobj suggestion in {stdout}"));
+    let pasted = teachcam(&[
+        "check",
+        trajectory.to_str().unwrap(),
+        "--wobj",
+        wobj,
+        "--tcp",
+        TCP,
+    ]);
+    assert_eq!(pasted.status.code(), Some(0), "{}", text(&pasted.stdout));
 }
 
 #[test]
