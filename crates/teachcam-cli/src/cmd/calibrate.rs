@@ -223,8 +223,11 @@ fn find_all(images: &[PathBuf], board: &Chessboard) -> Vec<Found> {
     images
         .par_iter()
         .map(|path| {
-            let result = image::open(path)
-                .map_err(|e| format!("cannot read the image: {e}"))
+            let result = teachcam::io::recording::read_image(path)
+                .map_err(|e| match std::error::Error::source(&e) {
+                    Some(cause) => format!("{e}: {cause}"),
+                    None => e.to_string(),
+                })
                 .and_then(|image| {
                     let gray = gray_like_opencv(&image);
                     let size = ImageSize {

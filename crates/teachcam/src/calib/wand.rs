@@ -39,6 +39,7 @@ use nalgebra::{Point2, Unit};
 
 use crate::camera::Rig;
 use crate::geometry::{CameraId, Pixel, Point3, Pose};
+use crate::track::gates::robust_scale;
 use crate::triangulate::{TriangulateConfig, triangulate};
 
 use super::bundle::{AdjustError, BundleState, GateConfig, View, adjust_gated};
@@ -231,26 +232,9 @@ impl Default for WandConfig {
     }
 }
 
-/// The median, `None` for no values.
-pub(super) fn median(values: &[f64]) -> Option<f64> {
-    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
-/// `median + k · 1.4826 · MAD` of the values (Rousseeuw & Croux 1993), `None` for none.
+/// `median + k · σ̂` of the values (σ̂ = 1.4826 · MAD, Rousseeuw & Croux 1993), `None` for none.
 pub(super) fn robust_gate(values: &[f64], k: f64) -> Option<f64> {
-    let m = median(values)?;
-    let deviations: Vec<f64> = values.iter().map(|v| (v - m).abs()).collect();
-    Some(m + k * 1.4826 * median(&deviations)?)
+    robust_scale(values).map(|s| s.median + k * s.sigma)
 }
 
 /// One camera's result.
