@@ -351,10 +351,6 @@ fn write_pivot(dir: &Path) {
 /// in the order of the tree, so that a command's examples may use what its parent's wrote.
 /// `check` examples must pass on the robot (issue 18: they used to fail).
 #[test]
-#[expect(
-    clippy::print_stderr,
-    reason = "the test says what it skipped and how long each took"
-)]
 fn every_help_example_runs_as_written() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path();

@@ -338,7 +338,7 @@ fn help_texts_explain_the_robot_commands() {
     for (command, flags) in [
         (
             "check",
-            &["--robot", "--wobj", "--tcp", "--joints-out", "Example:"][..],
+            &["--robot", "--wobj", "--tcp", "--joints-out", "Examples:"][..],
         ),
         (
             "export",
@@ -348,11 +348,11 @@ fn help_texts_explain_the_robot_commands() {
                 "urscript",
                 "--force",
                 "--tolerance-mm",
-                "Example:",
+                "Examples:",
             ][..],
         ),
-        ("align", &["x_wobj_mm", "Example:"][..]),
-        ("pivot", &["--min-rotation-deg", "Example:"][..]),
+        ("align", &["x_wobj_mm", "Examples:"][..]),
+        ("pivot", &["--min-rotation-deg", "Examples:"][..]),
     ] {
         let out = teachcam(&[command, "--help"]);
         assert!(out.status.success());

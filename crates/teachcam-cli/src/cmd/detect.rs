@@ -124,11 +124,7 @@ pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result
         }
         (None, None) => None,
     };
-    let rig: Option<Rig> = args
-        .rig
-        .as_deref()
-        .map(|path| crate::load::rig(path))
-        .transpose()?;
+    let rig: Option<Rig> = args.rig.as_deref().map(crate::load::rig).transpose()?;
     cameras
         .iter()
         .map(|frames| {

@@ -264,7 +264,7 @@ mod tests {
                 camera: "cam1".into(),
                 frame: 7,
                 time_s: 0.0,
-                blobs: vec![blob(1e-9, 1279.999_999_999), blob(5.0, 6.0)],
+                blobs: vec![blob(1e-9, 1_279.999_999_999), blob(5.0, 6.0)],
             },
         ];
         let text = detections_csv(&frames);
