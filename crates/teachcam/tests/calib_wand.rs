@@ -318,3 +318,128 @@ fn a_short_dance_and_a_wand_in_one_camera_are_refused_and_a_planar_dance_gives_t
         }
     }
 }
+
+/// The observations compared with scipy: `tests/data/wand_observations.csv` (`frame,camera,
+/// marker,u,v`, distorted pixels in wand order) and `wand_observations_rig.json` (the true rig
+/// in camera 0's frame: intrinsics for both solvers, the truth for the script's start).
+fn reference_paths() -> (std::path::PathBuf, std::path::PathBuf) {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    (
+        data.join("wand_observations.csv"),
+        data.join("wand_observations_rig.json"),
+    )
+}
+
+/// Writes the reference input when `TEACHCAM_WRITE_WAND_OBSERVATIONS` is set: 300 frames of
+/// the dance projected exactly through the true rig, 0.05 px of Gaussian noise, kept by
+/// `wand_views` as a recording's would be.
+#[test]
+fn write_the_wand_observations_for_the_scipy_reference_when_asked() {
+    if std::env::var_os("TEACHCAM_WRITE_WAND_OBSERVATIONS").is_none() {
+        return;
+    }
+    let scene = wand_scene(21);
+    let (frames, _) = projected(&scene, 300, 0.05, usize::MAX, 0.0);
+    let wand = contract_wand();
+    let views = wand_views(&scene.rig, &frames, &wand, &WandConfig::default());
+    let mut csv = String::from("frame,camera,marker,u,v\n");
+    for (f, frame) in views.frames.iter().enumerate() {
+        if frame.len() < 2 {
+            continue;
+        }
+        for (id, pixels) in frame {
+            for (k, p) in pixels.iter().enumerate() {
+                csv.push_str(&format!("{f},{},{k},{:.6},{:.6}\n", id.0, p.x, p.y));
+            }
+        }
+    }
+    let (observations, rig) = reference_paths();
+    std::fs::write(observations, csv).unwrap();
+    teachcam::io::rig::write_rig(&rig, &in_camera0_frame(&scene.rig)).unwrap();
+}
+
+/// The wand bundle adjustment against an independent solver on the same observations:
+/// `scripts/reference/wand_bundle_scipy.py` (scipy `least_squares`, its own projection, its
+/// own parameterisation and start) → `tests/data/wand_bundle_scipy.json`. Both minimise the
+/// same cost, so they must reach the same minimum: every camera within a tenth of its σ
+/// (σ from the noise of 0.05 px; the difference is the solvers' convergence, not noise).
+#[test]
+fn the_wand_bundle_reaches_scipys_minimum_on_the_same_observations() {
+    let (observations, rig_path) = reference_paths();
+    let rig = teachcam::io::rig::read_rig(&rig_path).unwrap();
+    let text = std::fs::read_to_string(observations).unwrap();
+    let mut frames: std::collections::BTreeMap<usize, teachcam::calib::wand::WandFrame> =
+        std::collections::BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let v: Vec<&str> = line.split(',').collect();
+        let (f, c, k): (usize, usize, usize) = (
+            v[0].parse().unwrap(),
+            v[1].parse().unwrap(),
+            v[2].parse().unwrap(),
+        );
+        let p = teachcam::geometry::Pixel::new(v[3].parse().unwrap(), v[4].parse().unwrap());
+        frames
+            .entry(f)
+            .or_default()
+            .entry(teachcam::geometry::CameraId(c))
+            .or_insert([p; 3])[k] = p;
+    }
+    let frames: Vec<_> = frames.into_values().collect();
+    let result = calibrate_wand(&rig, &frames, &contract_wand(), &WandConfig::default()).unwrap();
+    assert_eq!(result.frames_used, frames.len());
+    assert!(result.cameras.iter().all(|c| c.dropped == 0));
+    let reference: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/data/wand_bundle_scipy.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    for (c, (camera, fit)) in result.rig.cameras.iter().zip(&result.cameras).enumerate() {
+        let r = &reference["cameras"][c];
+        let centre: Vec<f64> = (0..3)
+            .map(|i| r["centre_mm"][i].as_f64().unwrap())
+            .collect();
+        let centre = teachcam::geometry::Point3::new(centre[0], centre[1], centre[2]);
+        let rows: Vec<Vec<f64>> = (0..3)
+            .map(|i| {
+                (0..3)
+                    .map(|j| r["rotation"][i][j].as_f64().unwrap())
+                    .collect()
+            })
+            .collect();
+        let theirs =
+            nalgebra::UnitQuaternion::from_matrix(&nalgebra::Matrix3::from_fn(|i, j| rows[i][j]));
+        let angle = camera
+            .camera_from_world
+            .rotation
+            .angle_to(&theirs)
+            .to_degrees();
+        let moved = (camera.center_in_world() - centre).norm();
+        eprintln!(
+            "{}: vs scipy {moved:.2e} mm, {angle:.2e} deg (σ {:.4} mm, {:.5} deg)",
+            camera.name, fit.centre_std_mm, fit.rotation_std_deg
+        );
+        assert!(
+            moved <= 0.1 * fit.centre_std_mm + 1e-9,
+            "{}: {moved} mm",
+            camera.name
+        );
+        assert!(
+            angle <= 0.1 * fit.rotation_std_deg + 1e-9,
+            "{}: {angle} deg",
+            camera.name
+        );
+    }
+    let rms = reference["reprojection_rms_px"].as_f64().unwrap();
+    let ours = (result
+        .cameras
+        .iter()
+        .map(|c| c.rms_px * c.rms_px * c.frames as f64)
+        .sum::<f64>()
+        / result.cameras.iter().map(|c| c.frames as f64).sum::<f64>())
+    .sqrt();
+    eprintln!("reprojection rms: ours {ours:.6} px, scipy {rms:.6} px");
+    assert!((ours - rms).abs() < 1e-4 * rms.max(1e-3), "{ours} vs {rms}");
+}
