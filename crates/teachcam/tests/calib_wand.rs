@@ -132,6 +132,53 @@ fn a_rendered_wand_dance_calibrates_the_rig_within_a_millimetre() {
     assert_eq!(report.posed, report.frames);
     assert!(centre_mm < 1.0, "camera centres off by {centre_mm} mm");
     assert!(rotation_deg < 0.05, "rotations off by {rotation_deg} deg");
+
+    // The issue's stroke: the paper's brush stroke (120 frames) on the same four-camera rig,
+    // its markers projected exactly with 0.009 px of noise (what these renders leave after the
+    // fit, so the rig's error is not hidden under noise), tracked through the wand-calibrated
+    // rig and through the true rig; the issue asks ≤ 1.5×.
+    let (via_wand, via_truth) = (stroke_tip_rms_mm(&grounded), stroke_tip_rms_mm(&scene.rig));
+    eprintln!(
+        "stroke tip RMS: {via_wand:.4} mm through the wand rig, {via_truth:.4} mm through the true rig"
+    );
+    assert!(via_wand <= 1.5 * via_truth, "{via_wand} vs {via_truth} mm");
+}
+
+/// Tip RMS (mm) against the truth of the four-camera stroke tracked through `rig` (every
+/// frame must be posed).
+fn stroke_tip_rms_mm(rig: &Rig) -> f64 {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let stroke = teachcam::sim::build_scene(teachcam::sim::Scenario::FourCameras, 1);
+    assert_eq!(stroke.rig.cameras.len(), rig.cameras.len());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let noise = Normal::new(0.0, 0.009).unwrap();
+    let tracker = teachcam::track::Tracker::new(rig, &stroke.tool, Default::default());
+    let mut sum = 0.0;
+    for sample in &stroke.truth.samples {
+        let truth = sample.pose.unwrap();
+        let world = teachcam::sim::markers_in_world(&stroke.tool, &truth.world_from_tool);
+        let views: Views = stroke
+            .rig
+            .iter()
+            .map(|(id, camera)| {
+                let pixels = world
+                    .iter()
+                    .filter_map(|p| camera.project(p))
+                    .map(|p| {
+                        teachcam::geometry::Pixel::new(
+                            p.x + noise.sample(&mut rng),
+                            p.y + noise.sample(&mut rng),
+                        )
+                    })
+                    .collect();
+                (id, pixels)
+            })
+            .collect();
+        let posed = tracker.track_frame(&views).outcome.unwrap();
+        sum += (posed.tip_in_world - truth.tip_in_world).norm_squared();
+    }
+    (sum / stroke.truth.samples.len() as f64).sqrt()
 }
 
 /// Every frame's exact wand projections plus Gaussian noise of `noise_px`, in shuffled order;
