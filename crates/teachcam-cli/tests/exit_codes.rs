@@ -299,6 +299,22 @@ const NOT_RUN: &[(&str, &str)] = &[
     ),
 ];
 
+/// Examples run a second time with `--quiet`, which must leave stderr empty (issue 19: every
+/// command says what it wrote, and nothing with `--quiet`); the slow ones are left out.
+const QUIET: &[&str] = &[
+    "teachcam simulate --scenario static",
+    "teachcam simulate --scenario calibration",
+    "teachcam calibrate intrinsics",
+    "teachcam uncertainty-map",
+    "teachcam c3d ",
+    "teachcam import ",
+    "teachcam smooth ",
+    "teachcam spectrum ",
+    "teachcam smoothing-study",
+    "teachcam check ",
+    "teachcam export ",
+];
+
 /// `touched.csv` for `align`: four points of the work object touched by the robot, the work
 /// object 350 mm in front of the base and 100 mm up (the examples' `--wobj`).
 fn write_touched(dir: &Path) {
@@ -349,7 +365,8 @@ fn write_pivot(dir: &Path) {
 /// `sh`, globs and redirections included) in one folder: the root's examples first (the
 /// demo, a simulated recording tracked, smoothed, checked and exported), then each command's,
 /// in the order of the tree, so that a command's examples may use what its parent's wrote.
-/// `check` examples must pass on the robot (issue 18: they used to fail).
+/// `check` examples must pass on the robot (issue 18: they used to fail). An example with an
+/// output flag says what it wrote; those of [`QUIET`] say nothing on stderr with `--quiet`.
 #[test]
 fn every_help_example_runs_as_written() {
     let dir = tempfile::tempdir().unwrap();
@@ -391,8 +408,23 @@ fn every_help_example_runs_as_written() {
             let failed = !o.status.success()
                 || (example.starts_with("teachcam check ")
                     && !stdout.contains("ok: the robot can run this trajectory"));
-            if failed {
+            let writes = [" -o ", " --out ", " --output "]
+                .iter()
+                .any(|flag| example.contains(flag));
+            let said = stdout.contains("wrote ") || text(&o.stderr).contains("wrote ");
+            if failed || (writes && !said) {
                 failures.push(format!("{example}\n{stdout}{}", text(&o.stderr)));
+            }
+            if QUIET.iter().any(|start| example.starts_with(start)) {
+                let quiet = format!("'{binary}' --quiet{}", &example["teachcam".len()..]);
+                let o = Command::new("sh")
+                    .args(["-c", &quiet])
+                    .current_dir(root)
+                    .output()
+                    .unwrap();
+                if !o.status.success() || !o.stderr.is_empty() {
+                    failures.push(format!("--quiet {example}\n{}", text(&o.stderr)));
+                }
             }
         }
     }

@@ -157,6 +157,15 @@ fn run_tool(args: &ToolArgs) -> anyhow::Result<()> {
     let built =
         c3d::tool_from_data(&points, &columns, args.frames.clone(), tip, &config).map_err(named)?;
     teachcam::io::tool::write_tool(&args.output, &built.tool)?;
+    crate::announce::wrote(
+        std::slice::from_ref(&args.output),
+        &format!(
+            "tool '{}' of {} markers from {} frames",
+            built.tool.name,
+            built.tool.markers_in_tool.len(),
+            built.frames_used
+        ),
+    );
     let summary = serde_json::json!({
         "tool": args.output.display().to_string(),
         "frames_used": built.frames_used,

@@ -200,12 +200,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         writeln!(out, "{summary}")?;
     } else {
         let fmt = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.2} ms"));
-        eprintln!(
+        let summary = format!(
             "{} frames ({posed} posed), {dropped} dropped in {seconds:.1} s; latency p50 {}, p99 {}",
             samples.len(),
             fmt(p50),
             fmt(p99)
         );
+        match &args.out {
+            Some(path) => crate::announce::wrote(std::slice::from_ref(path), &summary),
+            None => crate::announce::say(&summary),
+        }
     }
     Ok(())
 }

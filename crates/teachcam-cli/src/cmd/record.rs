@@ -145,7 +145,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_tool(&args.out.join("tool.json"), &scene.tool)?;
     }
     let summary = record(source.as_mut(), &names, args)?;
-    eprintln!("{summary}");
+    crate::announce::wrote(std::slice::from_ref(&args.out), &summary);
     Ok(())
 }
 
@@ -209,9 +209,8 @@ fn record(source: &mut dyn FrameSource, names: &[String], args: &Args) -> anyhow
     let per_camera: Vec<String> = names.iter().map(|n| format!("{n} {written}")).collect();
     let unpaired: usize = stats.unpaired_frames.iter().sum();
     Ok(format!(
-        "{written} frames per camera ({}) at {fps} Hz -> {}; dropped: {} sets (writer behind), {} incomplete sets skipped, {unpaired} frames unpaired; largest time spread within a set {:.3} ms{}",
+        "{written} frames per camera ({}) at {fps} Hz; dropped: {} sets (writer behind), {} incomplete sets skipped, {unpaired} frames unpaired; largest time spread within a set {:.3} ms{}",
         per_camera.join(", "),
-        args.out.display(),
         stats.dropped_sets,
         incomplete,
         1e3 * stats.max_pair_spread_s,

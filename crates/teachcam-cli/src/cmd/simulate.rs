@@ -95,10 +95,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_wand_scenario(&args.out, args.seed, Some(frames), &|| progress.tick())
             .with_context(|| format!("writing the simulation to {}", args.out.display()))?;
         progress.finish();
-        eprintln!(
+        crate::announce::say(&format!(
             "wrote a wand dance of {frames} frames and a ground frame of {GROUND_FRAMES} frames x 4 cameras to {} (wand/, ground/, cameras.json, wand.json, lframe.json, rig_true.json)",
             args.out.display()
-        );
+        ));
         return Ok(());
     }
     if scenario.is_calibration() {
@@ -117,13 +117,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_calibration(&scene, &args.out, args.seed, &|| progress.tick())
             .with_context(|| format!("writing the simulation to {}", args.out.display()))?;
         progress.finish();
-        eprintln!(
+        crate::announce::say(&format!(
             "wrote {} board views x {} cameras of scenario '{}' to {}",
             scene.placements.len(),
             scene.rig.len(),
             scenario.name(),
             args.out.display()
-        );
+        ));
         return Ok(());
     }
     let mut scene = build_scene(scenario, args.seed);
@@ -137,12 +137,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     write_scene(&scene, &args.out, args.seed, &|| progress.tick())
         .with_context(|| format!("writing the simulation to {}", args.out.display()))?;
     progress.finish();
-    eprintln!(
+    crate::announce::say(&format!(
         "wrote {} frames x {} cameras of scenario '{}' to {}",
         scene.truth.len(),
         scene.rig.len(),
         scenario.name(),
         args.out.display()
-    );
+    ));
     Ok(())
 }

@@ -137,10 +137,13 @@ pub fn run(args: &Args) -> Result<()> {
         );
     }
 
-    println!(
-        "wrote {} and {}",
-        args.out.join("study.csv").display(),
-        args.out.join("study.png").display()
+    crate::announce::wrote(
+        &[args.out.join("study.csv"), args.out.join("study.png")],
+        &format!(
+            "{} methods on {} samples",
+            result.methods.len(),
+            result.time_s.len()
+        ),
     );
     Ok(())
 }
