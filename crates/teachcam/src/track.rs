@@ -22,7 +22,9 @@
 //! independent, so they run in parallel.
 
 pub mod gates;
+pub mod merged;
 pub mod reflections;
+pub mod temporal;
 pub mod uncertainty;
 
 use std::collections::BTreeMap;
@@ -58,6 +60,11 @@ pub struct TrackConfig {
     /// identification. Default none: a mirror is learned from the recording
     /// ([`reflections::learn_mirror`]), never assumed.
     pub mirror: Option<reflections::MirrorPlane>,
+    /// When a marker's blob counts as merged with something touching it ([`merged`]): its
+    /// view is then left out where others remain. Default none: measured from the
+    /// recording, and only checked where the blobs' shapes are given
+    /// ([`Tracker::track_frame_with_shapes`]).
+    pub merged: Option<merged::MergedGate>,
 }
 
 /// How many times the registration gate a pose may leave and still be written (as an
@@ -76,6 +83,7 @@ impl Default for TrackConfig {
             identify: IdentifyConfig::default(),
             max_registration_rms_mm: 0.5,
             mirror: None,
+            merged: None,
         }
     }
 }
@@ -160,6 +168,41 @@ pub enum Flag {
         /// How many times the gates.
         factor: f64,
     },
+    /// A marker's blob was merged with something touching it and left out of the marker's
+    /// point; the other views made it.
+    #[error("merged blob in {camera} (size {size_ratio:.2}, roundness {roundness:.2}) left out")]
+    MergedViewDropped {
+        /// The camera.
+        camera: CameraId,
+        /// The blob's size ratio ([`merged::size_ratio`]).
+        size_ratio: f64,
+        /// The blob's roundness.
+        roundness: f64,
+    },
+    /// A marker's blob was merged with something touching it and used: its point had no
+    /// other view to spare.
+    #[error(
+        "merged blob in {camera} (size {size_ratio:.2}, roundness {roundness:.2}) used: no other view"
+    )]
+    MergedBlobUsed {
+        /// The camera.
+        camera: CameraId,
+        /// The blob's size ratio ([`merged::size_ratio`]).
+        size_ratio: f64,
+        /// The blob's roundness.
+        roundness: f64,
+    },
+    /// The pose is farther from its neighbours than the recording's motion allows
+    /// ([`temporal`]).
+    #[error(
+        "tip {deviation_mm:.1} mm off its neighbours' path; the tool moves at most {gate_mm:.2} mm per frame"
+    )]
+    TemporalJump {
+        /// Distance of the tip from the path between the tips around it.
+        deviation_mm: f64,
+        /// The step gate, millimetres per frame.
+        gate_mm: f64,
+    },
     /// The registration residual is beyond the gate.
     #[error("registration residual {rms_mm:.3} mm beyond the {gate_mm:.3} mm gate")]
     RegistrationResidual {
@@ -177,10 +220,13 @@ impl Flag {
         match self {
             Self::RegistrationResidual { .. }
             | Self::PointResidual { .. }
-            | Self::WidenedGates { .. } => Status::Outlier,
-            Self::ViewDropped { .. } | Self::FewerMarkers { .. } | Self::TooManyPairings { .. } => {
-                Status::Degraded
-            }
+            | Self::WidenedGates { .. }
+            | Self::TemporalJump { .. } => Status::Outlier,
+            Self::ViewDropped { .. }
+            | Self::FewerMarkers { .. }
+            | Self::TooManyPairings { .. }
+            | Self::MergedViewDropped { .. }
+            | Self::MergedBlobUsed { .. } => Status::Degraded,
         }
     }
 }
@@ -203,6 +249,9 @@ pub struct FrameTrack {
     pub rival_in_world: Option<BTreeMap<MarkerId, Point3>>,
     /// Points left out as reflections behind the mirror ([`TrackConfig::mirror`]).
     pub reflections: usize,
+    /// Cameras whose blob of some point of the frame was merged ([`merged`]), with or
+    /// without a pose: the evidence for a gap too.
+    pub merged: Vec<CameraId>,
 }
 
 impl FrameTrack {
@@ -223,7 +272,11 @@ impl FrameTrack {
     #[must_use]
     pub fn reason(&self) -> String {
         match &self.outcome {
-            Err(lost) => lost.to_string(),
+            Err(lost) if self.merged.is_empty() => lost.to_string(),
+            Err(lost) => {
+                let cameras: Vec<String> = self.merged.iter().map(ToString::to_string).collect();
+                format!("{lost} (merged blob in {})", cameras.join(", "))
+            }
             Ok(_) => self
                 .flags
                 .iter()
@@ -265,7 +318,15 @@ enum Points {
 #[derive(Debug, Clone)]
 struct FramePoint {
     point: TriangulatedPoint,
-    flag: Option<Flag>,
+    flags: Vec<Flag>,
+    /// The camera whose merged blob this point left out or used.
+    merged: Option<CameraId>,
+}
+
+/// One frame's blobs: centres and, where given, shapes.
+struct Frame<'a> {
+    views: &'a Views,
+    shapes: &'a merged::Shapes,
 }
 
 /// One combination's answer.
@@ -328,15 +389,25 @@ impl<'a> Tracker<'a> {
     /// Tracks one frame from its blob centres (distorted pixels) per camera.
     #[must_use]
     pub fn track_frame(&self, views: &Views) -> FrameTrack {
+        self.track_frame_with_shapes(views, &merged::Shapes::new())
+    }
+
+    /// Tracks one frame from its blob centres per camera and their shapes (`shapes`, in the
+    /// order of `views`; a camera left out is not checked): a marker's blob merged with
+    /// something touching it ([`TrackConfig::merged`]) is left out of its point where other
+    /// views remain.
+    #[must_use]
+    pub fn track_frame_with_shapes(&self, views: &Views, shapes: &merged::Shapes) -> FrameTrack {
         let Correspondences { unique, ambiguous } =
             correspond_all(self.rig, &self.geometry, views, &self.config.correspond);
-        let strict = self.track_points(views, &unique, &ambiguous, Points::WithinGate);
+        let frame = Frame { views, shapes };
+        let strict = self.track_points(&frame, &unique, &ambiguous, Points::WithinGate);
         if !matches!(strict.outcome, Err(Lost::TooFewMarkers { .. })) {
             return strict;
         }
         // Too few markers within the gate: the points a little beyond it (a marker partly
         // hidden, a blob shifted by a neighbour) may still give a pose, flagged an outlier.
-        let mut relaxed = self.track_points(views, &unique, &ambiguous, Points::BeyondGate);
+        let mut relaxed = self.track_points(&frame, &unique, &ambiguous, Points::BeyondGate);
         match &relaxed.outcome {
             Ok(_) => {
                 relaxed.flags.push(Flag::WidenedGates {
@@ -350,12 +421,12 @@ impl<'a> Tracker<'a> {
 
     fn track_points(
         &self,
-        views: &Views,
+        frame: &Frame<'_>,
         unique: &[Correspondence],
         ambiguous: &[crate::correspond::Ambiguity],
         which: Points,
     ) -> FrameTrack {
-        let unique_points = self.triangulate_all(views, unique, which);
+        let unique_points = self.triangulate_all(frame, unique, which);
         let combinations = ambiguous
             .iter()
             .try_fold(1_usize, |n, a| n.checked_mul(a.alternatives.len()))
@@ -375,7 +446,7 @@ impl<'a> Tracker<'a> {
                 for group in ambiguous {
                     let n = group.alternatives.len();
                     points.extend(self.triangulate_all(
-                        views,
+                        frame,
                         &group.alternatives[rest % n],
                         which,
                     ));
@@ -389,7 +460,7 @@ impl<'a> Tracker<'a> {
 
     fn triangulate_all(
         &self,
-        views: &Views,
+        frame: &Frame<'_>,
         correspondences: &[Correspondence],
         which: Points,
     ) -> Vec<FramePoint> {
@@ -401,11 +472,19 @@ impl<'a> Tracker<'a> {
         correspondences
             .iter()
             .filter_map(|c| {
-                let pixels: BTreeMap<CameraId, _> = c
+                let mut pixels: BTreeMap<CameraId, _> = c
                     .blobs
                     .iter()
-                    .filter_map(|(cam, i)| Some((*cam, *views.get(cam)?.get(*i)?)))
+                    .filter_map(|(cam, i)| Some((*cam, *frame.views.get(cam)?.get(*i)?)))
                     .collect();
+                let mut flags = Vec::new();
+                let merged = self.merged_view(frame, c, &pixels);
+                if let Some((camera, flag)) = &merged {
+                    if pixels.len() > 2 {
+                        pixels.remove(camera);
+                    }
+                    flags.push(flag.clone());
+                }
                 let strict =
                     triangulate_leaving_one_out(self.rig, &pixels, &self.config.triangulate);
                 let (robust, beyond) = match (strict, which) {
@@ -416,26 +495,74 @@ impl<'a> Tracker<'a> {
                         true,
                     ),
                 };
-                let flag = if beyond {
-                    Some(Flag::PointResidual {
+                if beyond {
+                    flags.push(Flag::PointResidual {
                         residual_px: robust.point.residual_px,
                         gate_px,
-                    })
-                } else {
-                    robust
-                        .dropped
-                        .zip(robust.residual_with_all_px)
-                        .map(|(camera, residual_px)| Flag::ViewDropped {
-                            camera,
-                            residual_px,
-                        })
-                };
+                    });
+                } else if let Some((camera, residual_px)) =
+                    robust.dropped.zip(robust.residual_with_all_px)
+                {
+                    flags.push(Flag::ViewDropped {
+                        camera,
+                        residual_px,
+                    });
+                }
                 Some(FramePoint {
                     point: robust.point,
-                    flag,
+                    flags,
+                    merged: merged.map(|(camera, _)| camera),
                 })
             })
             .collect()
+    }
+
+    /// The view of a correspondence whose blob is merged ([`merged`]), the most oversized one,
+    /// with its flag: [`Flag::MergedViewDropped`] where two or more other views remain, else
+    /// [`Flag::MergedBlobUsed`]. The marker's depth comes from all its views (no gate).
+    fn merged_view(
+        &self,
+        frame: &Frame<'_>,
+        correspondence: &Correspondence,
+        pixels: &BTreeMap<CameraId, crate::geometry::Pixel>,
+    ) -> Option<(CameraId, Flag)> {
+        let gate = self.config.merged?;
+        if frame.shapes.is_empty() || pixels.len() < 2 {
+            return None;
+        }
+        let loose = TriangulateConfig {
+            max_residual_px: f64::INFINITY,
+            ..self.config.triangulate
+        };
+        let point = crate::triangulate::triangulate(self.rig, pixels, &loose).ok()?;
+        let diameter_mm = self.tool.marker_diameter_mm;
+        correspondence
+            .blobs
+            .iter()
+            .filter_map(|(camera, i)| {
+                let shape = frame.shapes.get(camera)?.get(*i)?;
+                let ratio =
+                    merged::size_ratio(self.rig, *camera, shape, &point.position, diameter_mm)?;
+                gate.is_merged(ratio, shape.roundness)
+                    .then_some((*camera, ratio, shape.roundness))
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(camera, size_ratio, roundness)| {
+                let flag = if pixels.len() > 2 {
+                    Flag::MergedViewDropped {
+                        camera,
+                        size_ratio,
+                        roundness,
+                    }
+                } else {
+                    Flag::MergedBlobUsed {
+                        camera,
+                        size_ratio,
+                        roundness,
+                    }
+                };
+                (camera, flag)
+            })
     }
 
     fn candidate(&self, points: Vec<FramePoint>, which: Points) -> Candidate {
@@ -517,6 +644,7 @@ impl<'a> Tracker<'a> {
                 combinations,
                 rival_in_world: None,
                 reflections: 0,
+                merged: Vec::new(),
             };
         };
         let mut outcome = best.outcome.clone();
@@ -549,7 +677,7 @@ impl<'a> Tracker<'a> {
             flags.extend(
                 best.labels
                     .values()
-                    .filter_map(|p| best.points[*p].flag.clone()),
+                    .flat_map(|p| best.points[*p].flags.iter().cloned()),
             );
             if pose.markers < self.tool.markers_in_tool.len() {
                 flags.push(Flag::FewerMarkers {
@@ -564,6 +692,17 @@ impl<'a> Tracker<'a> {
                 });
             }
         }
+        // With a pose, the merged blobs it used or left out; without, every one the frame had.
+        let mut merged: Vec<CameraId> = match &outcome {
+            Ok(_) => best
+                .labels
+                .values()
+                .filter_map(|p| best.points[*p].merged)
+                .collect(),
+            Err(_) => best.points.iter().filter_map(|p| p.merged).collect(),
+        };
+        merged.sort_unstable();
+        merged.dedup();
         FrameTrack {
             outcome,
             points: best.points.into_iter().map(|p| p.point).collect(),
@@ -572,6 +711,7 @@ impl<'a> Tracker<'a> {
             combinations,
             rival_in_world,
             reflections: best.reflections,
+            merged,
         }
     }
 
@@ -602,6 +742,44 @@ impl<'a> Tracker<'a> {
         let times: Vec<f64> = (0..tracks.len()).map(|i| i as f64 / fps).collect();
         (trajectory_from_tracks(&tracks, &times), tracks)
     }
+}
+
+/// The temporal guard ([`temporal`]) over tracked frames: each frame whose pose is farther
+/// from its neighbours than the recording's own motion allows gets [`Flag::TemporalJump`]
+/// (an outlier). `tip_std_mm[i]` is frame `i`'s tip uncertainty (the gate's floor). Returns
+/// the step gate, `None` when too few steps were measured.
+pub fn guard_in_time(
+    tracks: &mut [FrameTrack],
+    tip_std_mm: &[Option<f64>],
+) -> Option<gates::Gate> {
+    let frames: Vec<temporal::TipFrame> = tracks
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let status = t.status();
+            temporal::TipFrame {
+                tip_in_world: t
+                    .outcome
+                    .as_ref()
+                    .ok()
+                    .filter(|_| status != Status::Outlier)
+                    .map(|p| p.tip_in_world),
+                confident: status == Status::Ok,
+                tip_std_mm: tip_std_mm.get(i).copied().flatten(),
+            }
+        })
+        .collect();
+    let check = temporal::temporal_outliers(&frames);
+    let gate_mm = check.gate.as_ref().map_or(f64::INFINITY, |g| g.value);
+    for (frame, deviation_mm) in check.outliers {
+        if let Some(track) = tracks.get_mut(frame) {
+            track.flags.push(Flag::TemporalJump {
+                deviation_mm,
+                gate_mm,
+            });
+        }
+    }
+    check.gate
 }
 
 /// The trajectory of tracked frames, frame `i` at `times_s[i]` (its exposure time; a frame

@@ -152,6 +152,7 @@ fn two_webcams_at_two_metres_are_tracked_with_measured_gates() {
         &rig,
         &tool,
         &sample,
+        &[],
         roundness_gate(&[], None),
         &GateOverrides::default(),
     );

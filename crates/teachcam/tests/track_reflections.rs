@@ -88,6 +88,7 @@ fn the_triangles_mirror_image_in_the_plate_is_never_posed() {
         &scene.rig,
         &scene.tool,
         &views,
+        &[],
         min_roundness,
         &GateOverrides::default(),
     );
