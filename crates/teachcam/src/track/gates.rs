@@ -619,7 +619,7 @@ fn merged_gate(blobs: &[(f64, f64)]) -> (Option<MergedGate>, String) {
         min_roundness: round.value,
     };
     let reason = format!(
-        "radius over the sphere's predicted one above {:.3} × the typical {typical:.3} ({}), or roundness under {:.3} ({}) at the typical size or more",
+        "radius over the sphere's predicted one above {:.3} × the typical {typical:.3} ({}), or roundness under {:.3} ({}) above halfway between the two sizes",
         size.value, size.reason, round.value, round.reason
     );
     (Some(gate), reason)

@@ -6,8 +6,9 @@
 //! over `r̂` at the depth of the marker it was triangulated into. Over the confidently
 //! tracked markers of the gate sample the ratio is steady (blur, bloom and threshold scale it
 //! alike); a blob whose ratio is beyond `median + 4σ̂` of that sample, or which is less round
-//! than `median − 4σ̂` of the sample's roundness while no smaller than a typical marker (a
-//! marker partly hidden is smaller, and is not merged), holds more than one sphere's light:
+//! than `median − 4σ̂` of the sample's roundness while larger than a typical marker (halfway
+//! to the size gate; a marker partly hidden is smaller, and is not merged), holds more than
+//! one sphere's light:
 //! its centre is pulled towards whatever touches it.
 //!
 //! A merged view is left out of its marker's point where two or more other views remain
@@ -50,7 +51,8 @@ pub struct MergedGate {
     pub max_size_ratio: f64,
     /// Median size ratio of confidently tracked markers.
     pub typical_size_ratio: f64,
-    /// Smallest roundness of a single marker's blob of typical size or larger.
+    /// Smallest roundness of a single marker's blob larger than typical (halfway to
+    /// `max_size_ratio`).
     pub min_roundness: f64,
 }
 
@@ -59,7 +61,8 @@ impl MergedGate {
     #[must_use]
     pub fn is_merged(&self, size_ratio: f64, roundness: f64) -> bool {
         size_ratio > self.max_size_ratio
-            || (roundness < self.min_roundness && size_ratio >= self.typical_size_ratio)
+            || (roundness < self.min_roundness
+                && size_ratio >= 0.5 * (self.typical_size_ratio + self.max_size_ratio))
     }
 }
 
