@@ -203,6 +203,13 @@ pub enum Flag {
         /// The step gate, millimetres per frame.
         gate_mm: f64,
     },
+    /// The tool's distances left too few markers; they were labelled by their nearness to
+    /// the markers of a neighbouring frame's pose ([`fill_from_neighbours`]).
+    #[error("markers labelled by frame {frame}'s pose (too few fitted the tool's distances)")]
+    LabelledFromNeighbour {
+        /// The neighbouring frame.
+        frame: usize,
+    },
     /// The registration residual is beyond the gate.
     #[error("registration residual {rms_mm:.3} mm beyond the {gate_mm:.3} mm gate")]
     RegistrationResidual {
@@ -221,7 +228,8 @@ impl Flag {
             Self::RegistrationResidual { .. }
             | Self::PointResidual { .. }
             | Self::WidenedGates { .. }
-            | Self::TemporalJump { .. } => Status::Outlier,
+            | Self::TemporalJump { .. }
+            | Self::LabelledFromNeighbour { .. } => Status::Outlier,
             Self::ViewDropped { .. }
             | Self::FewerMarkers { .. }
             | Self::TooManyPairings { .. }
@@ -734,6 +742,89 @@ impl<'a> Tracker<'a> {
         )
     }
 
+    /// Labels a frame's points by their nearness to the markers of a neighbour's pose
+    /// (`neighbour`, `frame` its index): each marker takes the one point within
+    /// [`NEIGHBOUR_RADIUS`] of the tool's closest marker distance of its predicted place,
+    /// points up to [`OUTLIER_LIMIT`] times the triangulation gate included; `None` unless
+    /// three or more markers are labelled and registration leaves at most [`OUTLIER_LIMIT`]
+    /// times the tool's distance ceiling.
+    fn track_from_neighbour(
+        &self,
+        views: &Views,
+        shapes: &merged::Shapes,
+        neighbour: &ToolPose,
+        frame: usize,
+    ) -> Option<FrameTrack> {
+        let Correspondences { unique, .. } =
+            correspond_all(self.rig, &self.geometry, views, &self.config.correspond);
+        let points: Vec<FramePoint> = self
+            .triangulate_all(&Frame { views, shapes }, &unique, Points::BeyondGate)
+            .into_iter()
+            .filter(|p| {
+                self.config
+                    .mirror
+                    .as_ref()
+                    .is_none_or(|m| !m.is_behind(&p.point.position))
+            })
+            .collect();
+        let model = &self.tool.markers_in_tool;
+        let closest_mm = (0..model.len())
+            .flat_map(|i| (i + 1..model.len()).map(move |j| (i, j)))
+            .map(|(i, j)| (model[i] - model[j]).norm())
+            .fold(f64::INFINITY, f64::min);
+        let radius_mm = NEIGHBOUR_RADIUS * closest_mm;
+        let mut labels = BTreeMap::new();
+        for (m, marker) in model.iter().enumerate() {
+            let predicted = neighbour.world_from_tool * marker;
+            let near: Vec<usize> = (0..points.len())
+                .filter(|&p| (points[p].point.position - predicted).norm() <= radius_mm)
+                .collect();
+            if let [only] = near[..] {
+                labels.insert(MarkerId(m), only);
+            }
+        }
+        let used: std::collections::BTreeSet<usize> = labels.values().copied().collect();
+        if labels.len() < 3 || used.len() < labels.len() {
+            return None;
+        }
+        let markers_in_world = labels
+            .iter()
+            .map(|(m, p)| (*m, points[*p].point.position))
+            .collect();
+        let limit_mm = OUTLIER_LIMIT * gates::distance_tolerance_ceiling_mm(self.tool);
+        let pose = pose_from_markers(self.tool, &markers_in_world, limit_mm).ok()?;
+        let mut flags: Vec<Flag> = labels
+            .values()
+            .flat_map(|p| points[*p].flags.iter().cloned())
+            .collect();
+        flags.push(Flag::LabelledFromNeighbour { frame });
+        if pose.markers < model.len() {
+            flags.push(Flag::FewerMarkers {
+                used: pose.markers,
+                of: model.len(),
+            });
+        }
+        if pose.rms_mm > self.config.max_registration_rms_mm {
+            flags.push(Flag::RegistrationResidual {
+                rms_mm: pose.rms_mm,
+                gate_mm: self.config.max_registration_rms_mm,
+            });
+        }
+        let mut merged: Vec<CameraId> = labels.values().filter_map(|p| points[*p].merged).collect();
+        merged.sort_unstable();
+        merged.dedup();
+        Some(FrameTrack {
+            outcome: Ok(pose),
+            points: points.into_iter().map(|p| p.point).collect(),
+            labels,
+            flags,
+            combinations: 1,
+            rival_in_world: None,
+            reflections: 0,
+            merged,
+        })
+    }
+
     /// Tracks every frame (in parallel) and assembles the trajectory; frame `i` is at time
     /// `i / fps`. Each sample carries its frame's status.
     #[must_use]
@@ -742,6 +833,64 @@ impl<'a> Tracker<'a> {
         let times: Vec<f64> = (0..tracks.len()).map(|i| i as f64 / fps).collect();
         (trajectory_from_tracks(&tracks, &times), tracks)
     }
+}
+
+/// A marker's point is labelled from a neighbour's pose when it lies within this fraction of
+/// the tool's closest marker distance of the marker's predicted place: under half, so no point
+/// is near two markers.
+pub const NEIGHBOUR_RADIUS: f64 = 0.3;
+
+/// Frames farthest apart a neighbour's pose labels across.
+pub const NEIGHBOUR_FRAMES: usize = 2;
+
+/// Frames lost because too few markers fitted the tool's distances (a marker partly hidden
+/// moves its point several millimetres) are labelled from the pose of a frame next to them
+/// (at most [`NEIGHBOUR_FRAMES`] away; forward through the recording, then backward, so a run
+/// of such frames is labelled one from the next): each marker takes the point near its place
+/// in the neighbour's pose. Such a pose is an `outlier` ([`Flag::LabelledFromNeighbour`]).
+/// A neighbour is a frame posed `ok` or `degraded`, or labelled so itself. `frames[i]` is frame
+/// `i`'s blob centres and shapes. Returns how many frames were posed so.
+pub fn fill_from_neighbours(
+    tracker: &Tracker<'_>,
+    frames: &[(&Views, &merged::Shapes)],
+    tracks: &mut [FrameTrack],
+) -> usize {
+    let anchor = |t: &FrameTrack| -> Option<ToolPose> {
+        let labelled = t
+            .flags
+            .iter()
+            .any(|f| matches!(f, Flag::LabelledFromNeighbour { .. }));
+        let pose = t.outcome.as_ref().ok()?;
+        (labelled || t.status() <= Status::Degraded).then_some(*pose)
+    };
+    let mut filled = 0;
+    let n = tracks.len().min(frames.len());
+    let order: Vec<(usize, bool)> = (0..n)
+        .map(|i| (i, true))
+        .chain((0..n).rev().map(|i| (i, false)))
+        .collect();
+    for (i, forward) in order {
+        if !matches!(tracks[i].outcome, Err(Lost::TooFewMarkers { .. })) {
+            continue;
+        }
+        let near: Vec<usize> = if forward {
+            (i.saturating_sub(NEIGHBOUR_FRAMES)..i).rev().collect()
+        } else {
+            (i + 1..(i + 1 + NEIGHBOUR_FRAMES).min(n)).collect()
+        };
+        let Some((j, pose)) = near
+            .into_iter()
+            .find_map(|j| Some((j, anchor(&tracks[j])?)))
+        else {
+            continue;
+        };
+        let (views, shapes) = frames[i];
+        if let Some(track) = tracker.track_from_neighbour(views, shapes, &pose, j) {
+            tracks[i] = track;
+            filled += 1;
+        }
+    }
+    filled
 }
 
 /// The temporal guard ([`temporal`]) over tracked frames: each frame whose pose is farther
