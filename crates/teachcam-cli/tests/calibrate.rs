@@ -296,3 +296,74 @@ fn missing_or_foreign_images_and_unknown_names_are_refused_before_any_work() {
         "{stderr}"
     );
 }
+
+/// The CRC-32 of PNG chunks (ISO 3309, polynomial 0xEDB88320).
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+#[test]
+fn an_image_too_large_to_decode_is_refused_from_its_header() {
+    // A PNG whose header claims 20000x20000 gray pixels (400 MB decoded) and holds no pixels.
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(20_000u32.to_be_bytes());
+    ihdr.extend(20_000u32.to_be_bytes());
+    ihdr.extend([8, 0, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(13u32.to_be_bytes());
+    png.extend(&ihdr);
+    png.extend(crc32(&ihdr).to_be_bytes());
+    // A first IDAT (an empty zlib stream): the decoder reads the header up to it.
+    for (kind, data) in [
+        (&b"IDAT"[..], &b"x\x9c\x03\x00\x00\x00\x00\x01"[..]),
+        (b"IEND", b""),
+    ] {
+        let mut chunk = kind.to_vec();
+        chunk.extend(data);
+        png.extend(u32::try_from(data.len()).unwrap().to_be_bytes());
+        png.extend(&chunk);
+        png.extend(crc32(&chunk).to_be_bytes());
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let image = dir.path().join("huge.png");
+    std::fs::write(&image, png).unwrap();
+    let out = dir.path().join("camera.json");
+    let run = teachcam()
+        .args([
+            "calibrate",
+            "intrinsics",
+            "--pattern",
+            "chessboard",
+            "--inner",
+            "9x6",
+            "--square",
+            "25",
+            image.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(run.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains("huge.png") && said.contains("20000x20000") && said.contains("megapixels"),
+        "{said}"
+    );
+    assert!(!out.exists());
+}

@@ -274,3 +274,25 @@ fn an_interrupt_removes_the_temporaries_and_keeps_the_old_output() {
     }
     assert_eq!(left, ["raw.csv", "smooth.csv"], "{status:?}");
 }
+
+#[test]
+fn simulate_replaces_a_recording_whole_never_mixing_old_and_new_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = simulate(dir.path());
+    std::fs::write(rec.join("notes.txt"), "the user's").unwrap();
+    let o = teachcam(&["simulate", "--frames", "1", "--out", s(&rec)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Before, frames 1 and 2 of the 3-frame run stayed beside the new frame 0.
+    for camera in ["cam0", "cam1", "cam2"] {
+        assert_eq!(names(&rec.join(camera)), ["000000.png"], "{camera}");
+    }
+    assert!(names(&rec).contains(&"notes.txt".to_string()));
+    assert_eq!(names(dir.path()), ["rec"], "a staging folder is left");
+    // A file where the folder should be: a usage error, as every unwritable output is.
+    let file = dir.path().join("file");
+    std::fs::write(&file, "x").unwrap();
+    let o = teachcam(&["simulate", "--frames", "1", "--out", s(&file)]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("not a folder"), "{}", stderr(&o));
+    assert_eq!(names(dir.path()), ["file", "rec"]);
+}

@@ -170,7 +170,13 @@ fn farthest_mm(a: &[Vector3<f64>; 3], b: &[Vector3<f64>; 3]) -> f64 {
 /// frames, millimetres.
 fn rigidity_std_mm<'a>(frames: impl Iterator<Item = &'a [Vector3<f64>; 3]>) -> f64 {
     let d: Vec<[f64; 3]> = frames
-        .map(|m| [(m[0] - m[1]).norm(), (m[0] - m[2]).norm(), (m[1] - m[2]).norm()])
+        .map(|m| {
+            [
+                (m[0] - m[1]).norm(),
+                (m[0] - m[2]).norm(),
+                (m[1] - m[2]).norm(),
+            ]
+        })
         .collect();
     let n = d.len() as f64;
     (0..3)
@@ -255,7 +261,11 @@ fn avi_cameras_track_as_well_as_their_png_frames() {
             .filter(|(f, m)| farthest_mm(m, &truth_markers[f]) > 25.0)
             .count()
     };
-    let common: Vec<usize> = peer.keys().filter(|f| ours.contains_key(f)).copied().collect();
+    let common: Vec<usize> = peer
+        .keys()
+        .filter(|f| ours.contains_key(f))
+        .copied()
+        .collect();
     let fraction = common.len() as f64 / peer.len() as f64;
     let beyond_25: Vec<usize> = common
         .iter()
@@ -277,11 +287,21 @@ fn avi_cameras_track_as_well_as_their_png_frames() {
         beyond_25.len(),
     );
     assert_eq!(wrong(&ours), 0, "a wrong identification");
-    assert!(beyond_25.is_empty(), "frames beyond 25 mm of the script's: {beyond_25:?}");
-    assert!(rigid_ours <= rigid_peer, "rigidity {rigid_ours} vs the script's {rigid_peer} mm");
+    assert!(
+        beyond_25.is_empty(),
+        "frames beyond 25 mm of the script's: {beyond_25:?}"
+    );
+    assert!(
+        rigid_ours <= rigid_peer,
+        "rigidity {rigid_ours} vs the script's {rigid_peer} mm"
+    );
     // The acceptance's 95 %: the frames where the hand hides half of marker 0 in cam0
     // (40–69) are posed too, labelled from their neighbours (outliers).
-    assert!(fraction >= 0.95, "{:.1} % of the script's frames", 100.0 * fraction);
+    assert!(
+        fraction >= 0.95,
+        "{:.1} % of the script's frames",
+        100.0 * fraction
+    );
 
     // `detect` reads the videos too, every frame of both cameras.
     let detections = dir.path().join("detections.csv");

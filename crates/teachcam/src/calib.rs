@@ -16,9 +16,11 @@
 //! One camera's result is written by [`crate::io::camera_file`] (`camera.json`, OpenCV
 //! `FileStorage` YAML, ROS `camera_info` YAML).
 
+pub(crate) mod bundle;
 pub mod chessboard;
 pub mod intrinsics;
 pub mod lm;
+pub mod refine;
 pub mod rig;
 pub mod wand;
 pub mod zhang;

@@ -15,7 +15,7 @@ pub mod trajectory;
 
 use std::path::{Path, PathBuf};
 
-pub use output::{Output, OutputPathError, OutputSet, check_outputs};
+pub use output::{Output, OutputPathError, OutputSet, StagedFolder, check_outputs};
 
 /// Why a file could not be read or written.
 #[derive(Debug, thiserror::Error)]

@@ -832,9 +832,24 @@ fn isolation(
 /// view, the exact projection of the sphere's centre). Frames are rendered in parallel;
 /// `on_frame` is called once per frame written.
 ///
+/// All or nothing: the files are written into a staging folder that replaces `out`'s entries
+/// only once every frame is written ([`crate::io::StagedFolder`]), so a failure or an interrupt
+/// never leaves old and new frames mixed.
+///
 /// # Errors
 /// [`FileError`] when a file cannot be written.
 pub fn write_scene(
+    scene: &Scene,
+    out: &Path,
+    seed: u64,
+    on_frame: &(dyn Fn() + Sync),
+) -> Result<(), FileError> {
+    let staged = crate::io::StagedFolder::new(out)?;
+    write_scene_into(scene, staged.path(), seed, on_frame)?;
+    staged.commit().map(drop)
+}
+
+fn write_scene_into(
     scene: &Scene,
     out: &Path,
     seed: u64,

@@ -897,10 +897,7 @@ pub fn fill_from_neighbours(
 /// from its neighbours than the recording's own motion allows gets [`Flag::TemporalJump`]
 /// (an outlier). `tip_std_mm[i]` is frame `i`'s tip uncertainty (the gate's floor). Returns
 /// the step gate, `None` when too few steps were measured.
-pub fn guard_in_time(
-    tracks: &mut [FrameTrack],
-    tip_std_mm: &[Option<f64>],
-) -> Option<gates::Gate> {
+pub fn guard_in_time(tracks: &mut [FrameTrack], tip_std_mm: &[Option<f64>]) -> Option<gates::Gate> {
     let frames: Vec<temporal::TipFrame> = tracks
         .iter()
         .enumerate()

@@ -213,3 +213,108 @@ fn camera_frames_with_a_misplaced_marker_are_dropped_by_the_residual_gate() {
     assert!(centre_mm < 1.0 && rotation_deg < 0.05);
     assert!(result.length_rms_mm <= 0.1);
 }
+
+/// The refusals, on exact projections (0.02 px noise) of the dance through the true
+/// rig: a dance too short and the wand seen by one camera only are refused. A dance in one
+/// plane is not degenerate for the adjustment when the intrinsics are known (a chessboard is
+/// planar too): it must give either a refusal naming the plane or the true rig, never a
+/// wrong one. (Measured: the true rig, to 1e-13 px without noise; the planarity check looks
+/// at the essential-matrix start's markers, which for this dance are not planar.)
+#[test]
+fn a_short_dance_and_a_wand_in_one_camera_are_refused_and_a_planar_dance_gives_the_truth() {
+    use teachcam::calib::wand::WandError;
+    let scene = wand_scene(5);
+    let wand = contract_wand();
+    let config = WandConfig::default();
+    let calibrate = |frames: &[Views]| {
+        let views = wand_views(&scene.rig, frames, &wand, &config);
+        calibrate_wand(&scene.rig, &views.frames, &wand, &config)
+    };
+    // 15 frames: fewer than the 20 with the wand in two or more cameras that are needed.
+    let (short, _) = projected(&scene, 15, 0.02, usize::MAX, 0.0);
+    let error = calibrate(&short).unwrap_err();
+    assert!(
+        matches!(error, WandError::TooFewFrames { found, needed: 20 } if found <= 15),
+        "{error}"
+    );
+    // 400 frames, but only camera 0 keeps its images: no frame has the wand in two cameras.
+    let (all, _) = projected(&scene, 400, 0.02, usize::MAX, 0.0);
+    let one_camera: Vec<Views> = all
+        .iter()
+        .map(|v| {
+            v.iter()
+                .filter(|(id, _)| id.0 == 0)
+                .map(|(id, p)| (*id, p.clone()))
+                .collect()
+        })
+        .collect();
+    let error = calibrate(&one_camera).unwrap_err();
+    assert!(
+        matches!(error, WandError::TooFewFrames { found: 0, .. }),
+        "{error}"
+    );
+    assert!(error.to_string().contains("two or more cameras"), "{error}");
+
+    // A dance in one plane: the wand slid flat over the dance's mean height, 200 frames.
+    let positions = wand.markers_mm;
+    let centre = scene
+        .truth
+        .samples
+        .iter()
+        .filter_map(|s| s.pose)
+        .map(|p| p.world_from_tool.translation.vector)
+        .fold(nalgebra::Vector3::zeros(), |s, t| s + t)
+        / scene.truth.samples.len() as f64;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let noise = Normal::new(0.0, 0.02).unwrap();
+    let planar: Vec<Views> = (0..200)
+        .map(|f| {
+            let t = f as f64 * 0.05;
+            let start =
+                centre + nalgebra::Vector3::new(150.0 * t.sin(), 120.0 * (1.3 * t).cos(), 0.0);
+            let axis = nalgebra::Vector3::new((0.7 * t).cos(), (0.7 * t).sin(), 0.0);
+            let world: Vec<teachcam::geometry::Point3> = positions
+                .iter()
+                .map(|p| {
+                    teachcam::geometry::Point3::from(
+                        start + axis * (p - positions[0]) - axis * 250.0,
+                    )
+                })
+                .collect();
+            scene
+                .rig
+                .iter()
+                .map(|(id, camera)| {
+                    let pixels = world
+                        .iter()
+                        .filter_map(|p| camera.project(p))
+                        .filter(|p| camera.image_size.contains(p))
+                        .map(|p| {
+                            teachcam::geometry::Pixel::new(
+                                p.x + noise.sample(&mut rng),
+                                p.y + noise.sample(&mut rng),
+                            )
+                        })
+                        .collect();
+                    (id, pixels)
+                })
+                .collect()
+        })
+        .collect();
+    match calibrate(&planar) {
+        Err(error) => {
+            eprintln!("planar dance refused: {error}");
+            assert!(error.to_string().contains("plane"), "{error}");
+        }
+        Ok(result) => {
+            let (centre_mm, rotation_deg) = rig_errors(&result.rig, &in_camera0_frame(&scene.rig));
+            eprintln!(
+                "planar dance calibrated: centre error {centre_mm:.4} mm, rotation error {rotation_deg:.5} deg"
+            );
+            // The acceptance, as for a full dance.
+            assert!(centre_mm < 1.0 && rotation_deg < 0.05);
+        }
+    }
+}

@@ -338,12 +338,20 @@ fn too_far_stroke_is_reported_frame_by_frame_with_a_verified_move() {
             f.issues
         );
     }
-    let Some(Suggestion::MoveWorkObject { by_in_base }) = report.suggestions.first().copied()
+    let Some(Suggestion::UseWorkObject { base_from_wobj }) = report.suggestions.first().copied()
     else {
         panic!("no work-object suggestion: {:?}", report.suggestions);
     };
+    let by_in_base = base_from_wobj.translation.vector - cell.base_from_wobj.translation.vector;
     assert!(by_in_base.x < 0.0, "{by_in_base:?}");
-    cell.base_from_wobj.translation.vector += by_in_base;
+    assert!(
+        (base_from_wobj
+            .rotation
+            .angle_to(&cell.base_from_wobj.rotation))
+            < 1e-12,
+        "the nearest fix turned the work object"
+    );
+    cell.base_from_wobj = base_from_wobj;
     let moved = check_path(&model, &cell, &targets, &CheckConfig::default());
     assert_eq!(moved.unreachable_count(), 0);
 }
@@ -952,11 +960,6 @@ fn a_world_upside_down_gets_a_verified_work_object() {
                 base_from_wobj,
                 ..cell
             },
-            Some(Suggestion::MoveWorkObject { by_in_base }) => {
-                let mut moved = cell;
-                moved.base_from_wobj.translation.vector += by_in_base;
-                moved
-            }
             other => panic!("{}: no work-object suggestion: {other:?}", model.name),
         };
         // The suggestion as printed (3 decimals, 9 in the quaternion) read back.

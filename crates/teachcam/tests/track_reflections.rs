@@ -11,9 +11,9 @@ use teachcam::correspond::Views;
 use teachcam::detect::{Blob, DetectConfig, detect};
 use teachcam::sim::{Scenario, Scene, build_scene, real_world, render_frame};
 use teachcam::track::gates::{Gate, GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate};
-use teachcam::track::uncertainty::tip_std_mm;
 use teachcam::track::merged::{BlobShape, Shapes};
 use teachcam::track::temporal::{TipFrame, temporal_outliers};
+use teachcam::track::uncertainty::tip_std_mm;
 use teachcam::track::{FrameTrack, Tracker, fill_from_neighbours, guard_in_time};
 use teachcam::trajectory::Status;
 
@@ -159,20 +159,37 @@ fn the_triangles_mirror_image_in_the_plate_is_never_posed() {
     let filled_errors = tip_errors(&scene, &frames, &filled);
     let filled_stds = tip_std_mm(&scene.rig, &scene.tool, &filled, &noise);
     let mut labelled = 0;
-    for (((frame, track), error), std) in frames.iter().zip(&filled).zip(&filled_errors).zip(&filled_stds) {
+    for (((frame, track), error), std) in frames
+        .iter()
+        .zip(&filled)
+        .zip(&filled_errors)
+        .zip(&filled_stds)
+    {
         let Some(error) = error else { continue };
         let std = std.unwrap();
         if track.reason().contains("labelled by frame") {
             labelled += 1;
             assert_eq!(track.status(), Status::Outlier, "frame {frame}");
-            assert!(*error < 50.0, "frame {frame}: tip {error:.1} mm off: a wrong labelling");
-            assert!(*error <= 3.0 * std, "frame {frame}: tip {error:.1} mm off, σ {std:.1} mm");
+            assert!(
+                *error < 50.0,
+                "frame {frame}: tip {error:.1} mm off: a wrong labelling"
+            );
+            assert!(
+                *error <= 3.0 * std,
+                "frame {frame}: tip {error:.1} mm off, σ {std:.1} mm"
+            );
         } else {
-            assert!(*error <= 4.0 * std || track.status() != Status::Ok, "frame {frame}");
+            assert!(
+                *error <= 4.0 * std || track.status() != Status::Ok,
+                "frame {frame}"
+            );
         }
     }
     assert_eq!(labelled, count);
-    assert!(count >= 45, "{count} of the 55 half-hidden frames labelled from a neighbour");
+    assert!(
+        count >= 45,
+        "{count} of the 55 half-hidden frames labelled from a neighbour"
+    );
 
     // Without the mirror the same frames pose the ghost (hundreds of millimetres off) and
     // lose the frames it makes ambiguous: the test can fail.
@@ -249,12 +266,12 @@ fn a_glint_merged_with_a_marker_is_named_and_the_hand_motion_never_trips_the_tem
         .collect();
     let errors = tip_errors(&scene, &frames, &tracks);
     let stds = tip_std_mm(&scene.rig, &scene.tool, &tracks, &noise);
-    for ((frame, track), (error, std)) in frames.iter().zip(&tracks).zip(errors.iter().zip(&stds))
-    {
+    for ((frame, track), (error, std)) in frames.iter().zip(&tracks).zip(errors.iter().zip(&stds)) {
         let glint = (100..110).contains(frame);
         let named = !track.merged.is_empty();
         assert_eq!(
-            named, glint,
+            named,
+            glint,
             "frame {frame}: merged {:?} ({}); gate {merged:?}",
             track.merged,
             track.reason()
@@ -263,9 +280,16 @@ fn a_glint_merged_with_a_marker_is_named_and_the_hand_motion_never_trips_the_tem
             // Two cameras: the merged view cannot be spared. A pose is degraded and within its
             // own uncertainty, or the frame is a gap that names the blob.
             assert_ne!(track.status(), Status::Ok, "frame {frame}");
-            assert!(track.reason().contains("merged blob in camera 0"), "frame {frame}: {}", track.reason());
+            assert!(
+                track.reason().contains("merged blob in camera 0"),
+                "frame {frame}: {}",
+                track.reason()
+            );
             if let (Some(error), Some(std)) = (error, std) {
-                assert!(*error <= 3.0 * std, "frame {frame}: {error} mm off, σ {std} mm");
+                assert!(
+                    *error <= 3.0 * std,
+                    "frame {frame}: {error} mm off, σ {std} mm"
+                );
             }
         }
     }
@@ -278,7 +302,10 @@ fn a_glint_merged_with_a_marker_is_named_and_the_hand_motion_never_trips_the_tem
         .filter(|(_, t)| t.reason().contains("neighbours' path"))
         .map(|(f, _)| *f)
         .collect();
-    assert!(jumps.is_empty(), "real motion flagged at {jumps:?} (gate {gate:?})");
+    assert!(
+        jumps.is_empty(),
+        "real motion flagged at {jumps:?} (gate {gate:?})"
+    );
 
     // A ghost injected into the trajectory: two frames posed 60 mm away from the tool (a
     // reflection never seen beside it) are flagged, and no other frame is.

@@ -1,6 +1,7 @@
-//! `teachcam calibrate intrinsics|rig|wand`: chessboard photographs to a camera or a whole rig;
-//! a wand dance to a rig ([`wand`]).
+//! `teachcam calibrate intrinsics|rig|wand|refine`: chessboard photographs to a camera or a
+//! whole rig; a wand dance to a rig ([`wand`]); a rig refined from any recording ([`refine`]).
 
+mod refine;
 mod wand;
 
 use std::collections::BTreeMap;
@@ -44,6 +45,7 @@ pub enum Calibrate {
     Intrinsics(IntrinsicsArgs),
     Rig(RigArgs),
     Wand(wand::WandArgs),
+    Refine(refine::RefineArgs),
 }
 
 /// The calibration target.
@@ -194,6 +196,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Calibrate::Intrinsics(a) => run_intrinsics(a),
         Calibrate::Rig(a) => run_rig(a),
         Calibrate::Wand(a) => wand::run_wand(a),
+        Calibrate::Refine(a) => refine::run_refine(a),
     }
 }
 
@@ -220,8 +223,11 @@ fn find_all(images: &[PathBuf], board: &Chessboard) -> Vec<Found> {
     images
         .par_iter()
         .map(|path| {
-            let result = image::open(path)
-                .map_err(|e| format!("cannot read the image: {e}"))
+            let result = teachcam::io::recording::read_image(path)
+                .map_err(|e| match std::error::Error::source(&e) {
+                    Some(cause) => format!("{e}: {cause}"),
+                    None => e.to_string(),
+                })
                 .and_then(|image| {
                     let gray = gray_like_opencv(&image);
                     let size = ImageSize {

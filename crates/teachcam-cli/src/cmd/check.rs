@@ -20,7 +20,7 @@ use crate::Rejected;
 /// Every frame must be reachable with the joints inside their ranges and the joint
 /// speeds within the data sheet's at the recorded timing, no configuration change; frames near
 /// the wrist singularity are reported as warnings. Prints a summary, every failing frame and
-/// suggestions (slow down by a factor, move the work object); exits with status 1 when the
+/// suggestions (slow down by a factor, a verified `--wobj` to paste); exits with status 1 when the
 /// program would fail on the robot.
 ///
 /// Frames (CONTRACT.md, "Robot frames"): the trajectory's world is the work object; `--wobj`

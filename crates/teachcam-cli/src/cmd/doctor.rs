@@ -8,11 +8,11 @@ use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
 use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::pipeline::CameraSetup;
-use teachcam::track::merged::{BlobShape, Shapes};
-use teachcam::track::{FrameTrack, Tracker};
 use teachcam::track::gates::{
     GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
+use teachcam::track::merged::{BlobShape, Shapes};
+use teachcam::track::{FrameTrack, Tracker};
 
 use crate::Rejected;
 use crate::cmd::detect::{Frames, detect_folder};

@@ -85,21 +85,8 @@ pub struct Args {
     /// the gates beside it (`<stem>.gates.json`).
     #[arg(long)]
     pub diagnostics: Option<PathBuf>,
-    /// Frames per second (overrides recording.json; default 30).
-    #[arg(long, value_parser = crate::flags::fps)]
-    pub fps: Option<f64>,
-    /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
-    #[arg(long, default_value = "refined")]
-    pub method: CenterMethod,
-    /// Fixed detection threshold in the images' units (default: automatic per frame).
-    #[arg(long)]
-    pub threshold: Option<u32>,
-    /// Nearest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
-    pub near: f64,
-    /// Farthest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
-    pub far: f64,
+    #[command(flatten)]
+    pub detect: DetectFlags,
     /// Gates fixed by hand (default: measured from the recording).
     #[command(flatten)]
     pub gates: GateFlags,
@@ -208,7 +195,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
 /// Blob centres of each frame (rig camera ids), their shapes and each frame's blobs'
 /// predicted noise.
-fn views_of(
+pub fn views_of(
     rig: &teachcam::camera::Rig,
     recording: &DetectedRecording,
 ) -> (Vec<Views>, Vec<Shapes>, Vec<Vec<f64>>) {
@@ -280,56 +267,14 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         .with_context(|| format!("{}", args.tool.display()))
         .rejected()?;
     }
-    if args.near >= args.far {
-        anyhow::bail!(
-            "--near {} and --far {}: near must be less than far",
-            args.near,
-            args.far
-        );
-    }
-    let setups = |min_roundness: f64| -> Vec<CameraSetup> {
-        rig.cameras
-            .iter()
-            .map(|camera| {
-                let mut detect =
-                    DetectConfig::for_marker(camera, tool.marker_diameter_mm, args.near, args.far);
-                detect.method = args.method;
-                detect.min_roundness = min_roundness;
-                if let Some(t) = args.threshold {
-                    detect.threshold = Threshold::Fixed(t);
-                }
-                // Only the rig's cameras, in the rig's order, every frame of the rig's size.
-                CameraSetup {
-                    name: camera.name.clone(),
-                    detect,
-                    size: Some((camera.image_size.width, camera.image_size.height)),
-                }
-            })
-            .collect()
-    };
-
-    // First pass: the roundness gate from a sample detected with the lowest floor.
-    let min_roundness = match overrides.min_roundness {
-        Some(_) => roundness_gate(&[], overrides.min_roundness),
-        None => {
-            let sample = detect_folder(
-                &args.recording,
-                args.fps,
-                Frames::Sample(ROUNDNESS_SAMPLE_FRAMES),
-                |_| Ok(setups(ROUNDNESS_FLOOR)),
-            )?;
-            let roundness: Vec<f64> = sample
-                .sets
-                .iter()
-                .flat_map(|s| s.cameras.iter().flatten())
-                .flat_map(|c| c.blobs.iter().map(|b| b.roundness))
-                .collect();
-            roundness_gate(&roundness, None)
-        }
-    };
-    let recording = detect_folder(&args.recording, args.fps, Frames::All, |_| {
-        Ok(setups(min_roundness.value))
-    })?;
+    let detected = detect_for_tracking(
+        &args.recording,
+        &rig,
+        &tool,
+        &args.detect,
+        overrides.min_roundness,
+    )?;
+    let (recording, min_roundness) = (detected.recording, detected.min_roundness);
     let frame_count = recording.sets.len();
     let (mut views, shapes, noise) = views_of(&rig, &recording);
     let synchronised = match &args.time_offsets {
@@ -379,8 +324,14 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     fill_from_neighbours(&tracker, &frames, &mut tracks);
     let stds = tip_std_mm(&rig, &tool, &tracks, &noise);
     match guard_in_time(&mut tracks, &stds) {
-        Some(gate) => eprintln!("  {:<24} {:>8.3} mm  {}", "tip step per frame", gate.value, gate.reason),
-        None => eprintln!("  {:<24} none: too few steps between ok frames", "tip step per frame"),
+        Some(gate) => eprintln!(
+            "  {:<24} {:>8.3} mm  {}",
+            "tip step per frame", gate.value, gate.reason
+        ),
+        None => eprintln!(
+            "  {:<24} none: too few steps between ok frames",
+            "tip step per frame"
+        ),
     }
     let times: Vec<f64> = recording.sets.iter().map(|s| s.time_s).collect();
     let mut trajectory = trajectory_from_tracks(&tracks, &times);
@@ -424,8 +375,109 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     Ok((trajectory, written))
 }
 
+/// The detector's options `track` and `calibrate refine` share.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct DetectFlags {
+    /// Frames per second (overrides recording.json; default 30).
+    #[arg(long, value_parser = crate::flags::fps)]
+    pub fps: Option<f64>,
+    /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
+    #[arg(long, default_value = "refined")]
+    pub method: CenterMethod,
+    /// Fixed detection threshold in the images' units (default: automatic per frame).
+    #[arg(long)]
+    pub threshold: Option<u32>,
+    /// Nearest distance from a camera to a marker, millimetres.
+    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
+    pub near: f64,
+    /// Farthest distance from a camera to a marker, millimetres.
+    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
+    pub far: f64,
+}
+
+/// A recording detected for tracking, with the roundness gate it was detected with.
+pub struct DetectedForTracking {
+    /// Every frame's blobs.
+    pub recording: DetectedRecording,
+    /// The roundness gate (measured from a sample unless overridden).
+    pub min_roundness: teachcam::track::gates::Gate,
+}
+
+/// Detects every frame of a recording for tracking `tool` through `rig`: the roundness gate
+/// from a sample detected with the lowest floor (unless `min_roundness` overrides it), then
+/// every frame with it. `track` and `calibrate refine` both read recordings through this.
+///
+/// # Errors
+/// `--near` not below `--far` (usage); the recording unreadable.
+pub fn detect_for_tracking(
+    recording: &Path,
+    rig: &teachcam::camera::Rig,
+    tool: &teachcam::tool::Tool,
+    flags: &DetectFlags,
+    min_roundness: Option<f64>,
+) -> anyhow::Result<DetectedForTracking> {
+    if flags.near >= flags.far {
+        anyhow::bail!(
+            "--near {} and --far {}: near must be less than far",
+            flags.near,
+            flags.far
+        );
+    }
+    let setups = |min_roundness: f64| -> Vec<CameraSetup> {
+        rig.cameras
+            .iter()
+            .map(|camera| {
+                let mut detect = DetectConfig::for_marker(
+                    camera,
+                    tool.marker_diameter_mm,
+                    flags.near,
+                    flags.far,
+                );
+                detect.method = flags.method;
+                detect.min_roundness = min_roundness;
+                if let Some(t) = flags.threshold {
+                    detect.threshold = Threshold::Fixed(t);
+                }
+                // Only the rig's cameras, in the rig's order, every frame of the rig's size.
+                CameraSetup {
+                    name: camera.name.clone(),
+                    detect,
+                    size: Some((camera.image_size.width, camera.image_size.height)),
+                }
+            })
+            .collect()
+    };
+
+    // First pass: the roundness gate from a sample detected with the lowest floor.
+    let min_roundness = match min_roundness {
+        Some(_) => roundness_gate(&[], min_roundness),
+        None => {
+            let sample = detect_folder(
+                recording,
+                flags.fps,
+                Frames::Sample(ROUNDNESS_SAMPLE_FRAMES),
+                |_| Ok(setups(ROUNDNESS_FLOOR)),
+            )?;
+            let roundness: Vec<f64> = sample
+                .sets
+                .iter()
+                .flat_map(|s| s.cameras.iter().flatten())
+                .flat_map(|c| c.blobs.iter().map(|b| b.roundness))
+                .collect();
+            roundness_gate(&roundness, None)
+        }
+    };
+    let recording = detect_folder(recording, flags.fps, Frames::All, |_| {
+        Ok(setups(min_roundness.value))
+    })?;
+    Ok(DetectedForTracking {
+        recording,
+        min_roundness,
+    })
+}
+
 /// "tool 'x' not found in any of N frames", with the most common reasons.
-fn not_found_message(tool: &str, tracks: &[FrameTrack]) -> String {
+pub fn not_found_message(tool: &str, tracks: &[FrameTrack]) -> String {
     let mut reasons: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
     for t in tracks {
         *reasons.entry(t.reason()).or_default() += 1;

@@ -39,11 +39,13 @@ use nalgebra::{Point2, Unit};
 
 use crate::camera::Rig;
 use crate::geometry::{CameraId, Pixel, Point3, Pose};
+use crate::track::gates::robust_scale;
 use crate::triangulate::{TriangulateConfig, triangulate};
 
+use super::bundle::{AdjustError, BundleState, GateConfig, View, adjust_gated};
 use super::intrinsics::{CameraParams, params_of};
 use super::lm::LmConfig;
-use bundle::{Bundle, BundleState, Observation, WandPose, camera_std, observation_rms_px};
+use bundle::{WandBody, WandPose};
 use essential::{PairFrame, relative_pose};
 
 /// A calibration wand: collinear markers along its axis (`wand.json`).
@@ -230,26 +232,9 @@ impl Default for WandConfig {
     }
 }
 
-/// The median, `None` for no values.
-pub(super) fn median(values: &[f64]) -> Option<f64> {
-    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
-/// `median + k · 1.4826 · MAD` of the values (Rousseeuw & Croux 1993), `None` for none.
+/// `median + k · σ̂` of the values (σ̂ = 1.4826 · MAD, Rousseeuw & Croux 1993), `None` for none.
 pub(super) fn robust_gate(values: &[f64], k: f64) -> Option<f64> {
-    let m = median(values)?;
-    let deviations: Vec<f64> = values.iter().map(|v| (v - m).abs()).collect();
-    Some(m + k * 1.4826 * median(&deviations)?)
+    robust_scale(values).map(|s| s.median + k * s.sigma)
 }
 
 /// One camera's result.
@@ -330,7 +315,7 @@ pub fn calibrate_wand(
         max_residual_px: f64::INFINITY,
         ..TriangulateConfig::default()
     };
-    let mut frames: Vec<Vec<Observation>> = Vec::new();
+    let mut frames: Vec<Vec<View>> = Vec::new();
     let mut wands: Vec<WandPose> = Vec::new();
     for frame in &usable {
         let marker = |k: usize| {
@@ -346,89 +331,42 @@ pub fn calibrate_wand(
         let Some(axis) = Unit::try_new(x2 - x0, 1e-9) else {
             continue;
         };
-        frames.push(frame.iter().map(|(id, p)| (id.0, *p)).collect());
+        frames.push(
+            frame
+                .iter()
+                .map(|(id, p)| View {
+                    camera: id.0,
+                    pixels: p.iter().copied().enumerate().collect(),
+                })
+                .collect(),
+        );
         wands.push(WandPose { start: x0, axis });
     }
     check_spread(&wands, &positions)?;
-    let total_frames = frames.len();
-    let mut state = BundleState {
+    let body = WandBody {
+        positions_mm: positions,
+    };
+    let gate = GateConfig {
+        gate_mads: config.gate_mads,
+        min_gate_px: config.min_residual_gate_px,
+        max_rounds: config.max_rounds,
+        min_frames: config.min_frames,
+    };
+    let start = BundleState {
         camera_from_world,
-        wands,
+        bodies: wands,
     };
-    let mut dropped_per_camera = vec![0usize; rig.len()];
-    let mut iterations = 0;
-    let mut round = 0;
-    let (state, report, gate_px) = loop {
-        round += 1;
-        let problem = Bundle::new(&params, &frames, &positions, 0);
-        let (solved, report) =
-            problem
-                .solve(state.clone(), &config.lm)
-                .ok_or_else(|| WandError::Bundle {
-                    message: "the residuals are undefined at the start (a wand behind a camera)"
-                        .into(),
-                })?;
-        iterations += report.iterations;
-        // Every camera-frame's RMS, then the gate.
-        let rms: Vec<Vec<f64>> = frames
-            .iter()
-            .zip(&solved.wands)
-            .map(|(observations, w)| {
-                observations
-                    .iter()
-                    .map(|(c, pixels)| {
-                        observation_rms_px(
-                            &params[*c],
-                            &solved.camera_from_world[*c],
-                            w,
-                            &positions,
-                            pixels,
-                        )
-                        .unwrap_or(f64::INFINITY)
-                    })
-                    .collect()
-            })
-            .collect();
-        let all: Vec<f64> = rms.iter().flatten().copied().collect();
-        let gate_px = robust_gate(&all, config.gate_mads)
-            .unwrap_or(f64::INFINITY)
-            .max(config.min_residual_gate_px);
-        let dropped: usize = all.iter().filter(|r| **r > gate_px).count();
-        if dropped == 0 || round >= config.max_rounds {
-            break (solved, report, gate_px);
-        }
-        let mut kept_frames = Vec::new();
-        let mut kept_wands = Vec::new();
-        for ((observations, w), frame_rms) in frames.iter().zip(&solved.wands).zip(&rms) {
-            let kept: Vec<Observation> = observations
-                .iter()
-                .zip(frame_rms)
-                .filter_map(|(o, r)| {
-                    if *r > gate_px {
-                        dropped_per_camera[o.0] += 1;
-                        None
-                    } else {
-                        Some(*o)
-                    }
-                })
-                .collect();
-            if kept.len() >= 2 {
-                kept_frames.push(kept);
-                kept_wands.push(*w);
-            }
-        }
-        frames = kept_frames;
-        if frames.len() < config.min_frames {
-            return Err(WandError::TooFewFrames {
-                found: frames.len(),
+    let adjusted =
+        adjust_gated(&body, &params, frames, start, 0, &gate, &config.lm).map_err(|e| match e {
+            AdjustError::BadStart => WandError::Bundle {
+                message: "the residuals are undefined at the start (a wand behind a camera)".into(),
+            },
+            AdjustError::TooFewFrames { found } => WandError::TooFewFrames {
+                found,
                 needed: config.min_frames,
-            });
-        }
-        state = BundleState {
-            camera_from_world: solved.camera_from_world,
-            wands: kept_wands,
-        };
-    };
+            },
+        })?;
+    let state = &adjusted.state;
     if !state
         .camera_from_world
         .iter()
@@ -442,59 +380,26 @@ pub fn calibrate_wand(
     for (camera, pose) in calibrated.cameras.iter_mut().zip(&state.camera_from_world) {
         camera.camera_from_world = *pose;
     }
-    // σ² from the residuals over the degrees of freedom; the reduced JᵀJ's inverse.
-    let observations: usize = frames.iter().map(Vec::len).sum();
-    let unknowns = 6 * (rig.len() - 1) + 5 * frames.len();
-    let residuals = 6 * observations;
-    let sigma2 = report.final_cost / (residuals.saturating_sub(unknowns).max(1)) as f64;
-    let covariance = report
-        .jtj
-        .clone()
-        .try_inverse()
-        .map(|m| m * sigma2)
-        .unwrap_or_else(|| {
-            nalgebra::DMatrix::from_element(report.jtj.nrows(), report.jtj.ncols(), f64::NAN)
-        });
-    let problem = Bundle::new(&params, &frames, &positions, 0);
     let cameras = rig
         .cameras
         .iter()
-        .enumerate()
-        .map(|(c, camera)| {
-            let mut sum = 0.0;
-            let mut count = 0;
-            for (observations, w) in frames.iter().zip(&state.wands) {
-                for (oc, pixels) in observations.iter().filter(|o| o.0 == c) {
-                    if let Some(r) = observation_rms_px(
-                        &params[*oc],
-                        &state.camera_from_world[*oc],
-                        w,
-                        &positions,
-                        pixels,
-                    ) {
-                        sum += 3.0 * r * r;
-                        count += 1;
-                    }
-                }
-            }
-            let (rotation_std_deg, centre_std_mm) = problem.columns[c].map_or((0.0, 0.0), |at| {
-                camera_std(&covariance, at, &state.camera_from_world[c])
-            });
-            WandCameraResult {
-                name: camera.name.clone(),
-                frames: count,
-                dropped: dropped_per_camera[c],
-                rms_px: if count > 0 {
-                    (sum / (3 * count) as f64).sqrt()
-                } else {
-                    0.0
-                },
-                rotation_std_deg,
-                centre_std_mm,
-            }
+        .zip(adjusted.camera_fits(&body, &params))
+        .zip(&adjusted.dropped_per_camera)
+        .map(|((camera, fit), dropped)| WandCameraResult {
+            name: camera.name.clone(),
+            frames: fit.frames,
+            dropped: *dropped,
+            rms_px: fit.rms_px,
+            rotation_std_deg: fit.std.rotation_deg,
+            centre_std_mm: fit.std.centre_mm,
         })
         .collect();
-    let (length_rms_mm, length_max_mm) = length_errors(&calibrated, &frames, wand);
+    let frames = &adjusted.frames;
+    let report = &adjusted.report;
+    let iterations = adjusted.iterations;
+    let gate_px = adjusted.gate_px;
+    let total_frames = adjusted.frames_before;
+    let (length_rms_mm, length_max_mm) = length_errors(&calibrated, frames, wand);
     Ok(WandCalibration {
         rig: calibrated,
         cameras,
@@ -613,7 +518,7 @@ fn check_spread(wands: &[WandPose], positions: &[f64; 3]) -> Result<(), WandErro
 
 /// RMS and max of the end-to-end length error over the frames, each frame's two end markers
 /// triangulated independently through `rig`.
-fn length_errors(rig: &Rig, frames: &[Vec<Observation>], wand: &Wand) -> (f64, f64) {
+fn length_errors(rig: &Rig, frames: &[Vec<View>], wand: &Wand) -> (f64, f64) {
     let config = TriangulateConfig {
         max_residual_px: f64::INFINITY,
         ..TriangulateConfig::default()
@@ -624,7 +529,10 @@ fn length_errors(rig: &Rig, frames: &[Vec<Observation>], wand: &Wand) -> (f64, f
             let marker = |k: usize| {
                 let pixels: BTreeMap<CameraId, Pixel> = observations
                     .iter()
-                    .map(|(c, p)| (CameraId(*c), p[k]))
+                    .filter_map(|v| {
+                        let (_, p) = v.pixels.iter().find(|(m, _)| *m == k)?;
+                        Some((CameraId(v.camera), *p))
+                    })
                     .collect();
                 triangulate(rig, &pixels, &config).ok().map(|t| t.position)
             };

@@ -46,8 +46,25 @@ fn live_temporaries() -> MutexGuard<'static, Vec<PathBuf>> {
 pub fn remove_live_temporaries() -> usize {
     live_temporaries()
         .drain(..)
-        .filter(|t| std::fs::remove_file(t).is_ok())
+        .filter(|t| remove_path(t).is_ok())
         .count()
+}
+
+/// Removes a file, or a folder with everything in it.
+fn remove_path(path: &Path) -> std::io::Result<()> {
+    if path.is_dir() {
+        std::fs::remove_dir_all(path)
+    } else {
+        std::fs::remove_file(path)
+    }
+}
+
+/// `.NAME.teachcam-tmp-PID` beside `target`.
+fn temporary_beside(target: &Path, file_name: &std::ffi::OsStr) -> PathBuf {
+    let mut temporary_name = OsString::from(".");
+    temporary_name.push(file_name);
+    temporary_name.push(format!("{TEMPORARY_MARK}{}", std::process::id()));
+    folder_of(target).join(temporary_name)
 }
 
 /// One staged file: the temporary holding the complete contents, and where it goes.
@@ -117,10 +134,7 @@ impl OutputSet {
             )));
         }
         self.sweep_stale(&folder);
-        let mut temporary_name = OsString::from(".");
-        temporary_name.push(file_name);
-        temporary_name.push(format!("{TEMPORARY_MARK}{}", std::process::id()));
-        let temporary = folder.join(temporary_name);
+        let temporary = temporary_beside(target, file_name);
         // Listed before it exists, so that an interrupt from here on removes it.
         live_temporaries().push(temporary.clone());
         let written = (|| {
@@ -212,21 +226,27 @@ impl OutputSet {
             }
             swept.push(folder.to_path_buf());
         }
-        // Without /proc a process's end cannot be told: keep every temporary.
-        if !Path::new("/proc/self").exists() {
-            return;
-        }
-        let Ok(entries) = std::fs::read_dir(folder) else {
-            return;
+        sweep_stale(folder);
+    }
+}
+
+/// Removes the temporaries (files or staged folders) left in `folder` by a process that no
+/// longer runs.
+fn sweep_stale(folder: &Path) {
+    // Without /proc a process's end cannot be told: keep every temporary.
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(folder) else {
+        return;
+    };
+    for entry in entries.filter_map(Result::ok) {
+        let name = entry.file_name();
+        let Some(pid) = stale_owner(&name.to_string_lossy()) else {
+            continue;
         };
-        for entry in entries.filter_map(Result::ok) {
-            let name = entry.file_name();
-            let Some(pid) = stale_owner(&name.to_string_lossy()) else {
-                continue;
-            };
-            if pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists() {
-                let _ = std::fs::remove_file(entry.path());
-            }
+        if pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists() {
+            let _ = remove_path(&entry.path());
         }
     }
 }
@@ -252,6 +272,148 @@ impl Drop for OutputSet {
             let _ = std::fs::remove_file(&s.temporary);
         }
         live.retain(|t| !staged.iter().any(|s| &s.temporary == t));
+    }
+}
+
+/// A folder of outputs written all or nothing (a simulated recording: thousands of frames and
+/// their truth). Everything is written into a staging folder `.NAME.teachcam-tmp-PID` beside the
+/// target; [`StagedFolder::commit`] renames it to the target or, when the target folder exists,
+/// renames each staged entry over its namesake there (the old ones kept until every rename has
+/// succeeded, then removed; put back if one fails). Dropped uncommitted, or interrupted, the
+/// staging folder is removed and the target is as it was: never a mix of old and new frames.
+#[derive(Debug)]
+pub struct StagedFolder {
+    target: PathBuf,
+    staging: PathBuf,
+    committed: bool,
+}
+
+impl StagedFolder {
+    /// Creates the staging folder beside `target` (and `target`'s missing parent folders).
+    ///
+    /// # Errors
+    /// [`FileError::Write`] naming `target`: it is a file, or its folder cannot be written.
+    pub fn new(target: &Path) -> Result<Self, FileError> {
+        let err = |source| write_error(target, source);
+        let file_name = target
+            .file_name()
+            .ok_or_else(|| err(std::io::Error::other("no folder name")))?;
+        if target.exists() && !target.is_dir() {
+            return Err(err(std::io::Error::new(
+                std::io::ErrorKind::NotADirectory,
+                "it is a file, not a folder",
+            )));
+        }
+        let parent = folder_of(target);
+        std::fs::create_dir_all(&parent).map_err(err)?;
+        sweep_stale(&parent);
+        let staging = temporary_beside(target, file_name);
+        live_temporaries().push(staging.clone());
+        if staging.exists() {
+            // This process's own leftover (a staging folder of an earlier set in this run).
+            let _ = std::fs::remove_dir_all(&staging);
+        }
+        if let Err(source) = std::fs::create_dir(&staging) {
+            forget_temporary(&staging);
+            return Err(err(source));
+        }
+        Ok(Self {
+            target: target.to_path_buf(),
+            staging,
+            committed: false,
+        })
+    }
+
+    /// Where to write the outputs.
+    #[must_use]
+    pub fn path(&self) -> &Path {
+        &self.staging
+    }
+
+    /// Puts the staged outputs in place (see the type's docs); returns the target.
+    ///
+    /// # Errors
+    /// [`FileError::Write`] naming what could not be renamed; the target is then as it was.
+    pub fn commit(mut self) -> Result<PathBuf, FileError> {
+        // Held through the renames: an interrupt waits for them (see the module docs).
+        let mut live = live_temporaries();
+        let result = if self.target.is_dir() {
+            self.merge_into_target()
+        } else {
+            std::fs::rename(&self.staging, &self.target)
+                .map_err(|source| write_error(&self.target, source))
+        };
+        if result.is_ok() {
+            self.committed = true;
+            live.retain(|t| t != &self.staging);
+        }
+        drop(live);
+        result.map(|()| self.target.clone())
+    }
+
+    /// Renames every staged entry over its namesake in the existing target folder.
+    fn merge_into_target(&self) -> Result<(), FileError> {
+        let entries: Vec<std::ffi::OsString> = std::fs::read_dir(&self.staging)
+            .map_err(|source| write_error(&self.staging, source))?
+            .filter_map(Result::ok)
+            .map(|e| e.file_name())
+            .collect();
+        // (destination, backup of what it held)
+        let mut done: Vec<(PathBuf, Option<PathBuf>)> = Vec::new();
+        let mut failure = None;
+        for name in &entries {
+            let destination = self.target.join(name);
+            let backup = if destination.exists() {
+                let mut b = temporary_beside(&destination, name).into_os_string();
+                b.push(".old");
+                let b = PathBuf::from(b);
+                if let Err(source) = std::fs::rename(&destination, &b) {
+                    failure = Some(write_error(&destination, source));
+                    break;
+                }
+                Some(b)
+            } else {
+                None
+            };
+            if let Err(source) = std::fs::rename(self.staging.join(name), &destination) {
+                if let Some(b) = &backup {
+                    let _ = std::fs::rename(b, &destination);
+                }
+                failure = Some(write_error(&destination, source));
+                break;
+            }
+            done.push((destination, backup));
+        }
+        if let Some(error) = failure {
+            for (destination, backup) in done.iter().rev() {
+                let _ = std::fs::rename(
+                    destination,
+                    self.staging
+                        .join(destination.file_name().unwrap_or_default()),
+                );
+                if let Some(b) = backup {
+                    let _ = std::fs::rename(b, destination);
+                }
+            }
+            return Err(error);
+        }
+        for (_, backup) in &done {
+            if let Some(b) = backup {
+                let _ = remove_path(b);
+            }
+        }
+        let _ = std::fs::remove_dir_all(&self.staging);
+        Ok(())
+    }
+}
+
+impl Drop for StagedFolder {
+    fn drop(&mut self) {
+        if !self.committed {
+            let mut live = live_temporaries();
+            let _ = std::fs::remove_dir_all(&self.staging);
+            live.retain(|t| t != &self.staging);
+        }
     }
 }
 
@@ -398,6 +560,66 @@ mod tests {
             .collect();
         names.sort();
         names
+    }
+
+    #[test]
+    fn a_staged_folder_appears_whole_on_commit_and_not_at_all_when_dropped() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("rec");
+        let staged = StagedFolder::new(&target).unwrap();
+        std::fs::create_dir(staged.path().join("cam0")).unwrap();
+        std::fs::write(staged.path().join("cam0/000000.png"), "frame").unwrap();
+        assert!(!target.exists(), "the target exists before commit");
+        assert_eq!(staged.commit().unwrap(), target);
+        assert_eq!(names(dir.path()), ["rec"]);
+        assert_eq!(names(&target.join("cam0")), ["000000.png"]);
+
+        let other = dir.path().join("other");
+        let staged = StagedFolder::new(&other).unwrap();
+        std::fs::write(staged.path().join("truth.csv"), "half").unwrap();
+        drop(staged);
+        assert_eq!(
+            names(dir.path()),
+            ["rec"],
+            "a dropped folder left something"
+        );
+    }
+
+    #[test]
+    fn a_staged_folder_replaces_an_existing_folders_entries_and_keeps_the_rest() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("rec");
+        std::fs::create_dir_all(target.join("cam0")).unwrap();
+        for frame in ["000000.png", "000001.png", "000002.png"] {
+            std::fs::write(target.join("cam0").join(frame), "old").unwrap();
+        }
+        std::fs::write(target.join("rig.json"), "old rig").unwrap();
+        std::fs::write(target.join("notes.txt"), "the user's").unwrap();
+        let staged = StagedFolder::new(&target).unwrap();
+        std::fs::create_dir(staged.path().join("cam0")).unwrap();
+        std::fs::write(staged.path().join("cam0/000000.png"), "new").unwrap();
+        std::fs::write(staged.path().join("rig.json"), "new rig").unwrap();
+        assert_eq!(std::fs::read(target.join("rig.json")).unwrap(), b"old rig");
+        staged.commit().unwrap();
+        // One new frame, not the new one beside two old ones.
+        assert_eq!(names(&target.join("cam0")), ["000000.png"]);
+        assert_eq!(
+            std::fs::read(target.join("cam0/000000.png")).unwrap(),
+            b"new"
+        );
+        assert_eq!(std::fs::read(target.join("rig.json")).unwrap(), b"new rig");
+        assert_eq!(names(&target), ["cam0", "notes.txt", "rig.json"]);
+        assert_eq!(names(dir.path()), ["rec"], "the staging folder is left");
+    }
+
+    #[test]
+    fn a_staged_folder_refuses_a_file_as_its_target() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("rec");
+        std::fs::write(&target, "a file").unwrap();
+        let error = StagedFolder::new(&target).unwrap_err().to_string();
+        assert!(error.contains("rec"), "{error}");
+        assert_eq!(names(dir.path()), ["rec"]);
     }
 
     #[test]

@@ -459,20 +459,48 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
             format!("image is {fw}x{fh}, the rig says {w}x{h}"),
         ));
     }
-    let pixels = u64::from(fw) * u64::from(fh);
+    check_frame_pixels(path, fw, fh)?;
+    let image =
+        image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).map_err(not_png)?;
+    Ok(GrayFrame::from_dynamic(image))
+}
+
+/// Refuses an image of more than [`MAX_FRAME_PIXELS`], naming its size.
+fn check_frame_pixels(path: &Path, width: u32, height: u32) -> Result<(), FileError> {
+    let pixels = u64::from(width) * u64::from(height);
     if pixels > MAX_FRAME_PIXELS {
         return Err(FileError::invalid(
             path,
             format!(
-                "image is {fw}x{fh} ({:.0} megapixels), more than the {} a frame may have",
+                "image is {width}x{height} ({:.0} megapixels), more than the {} a frame may have",
                 pixels as f64 / 1e6,
                 MAX_FRAME_PIXELS / 1_000_000
             ),
         ));
     }
-    let image =
-        image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).map_err(not_png)?;
-    Ok(GrayFrame::from_dynamic(image))
+    Ok(())
+}
+
+/// Decodes an image of any format `image` reads (a calibration photograph: PNG or JPEG),
+/// its size read from the header first: one over [`MAX_FRAME_PIXELS`] is refused before it
+/// is decoded.
+///
+/// # Errors
+/// [`FileError`] naming the file: unreadable, not an image, or too large.
+pub fn read_image(path: &Path) -> Result<image::DynamicImage, FileError> {
+    let reader = || {
+        image::ImageReader::open(path)
+            .and_then(image::ImageReader::with_guessed_format)
+            .map_err(|source| FileError::Read {
+                path: path.to_path_buf(),
+                source,
+            })
+    };
+    let not_image =
+        |e: image::ImageError| FileError::invalid(path, format!("not a readable image: {e}"));
+    let (width, height) = reader()?.into_dimensions().map_err(not_image)?;
+    check_frame_pixels(path, width, height)?;
+    reader()?.decode().map_err(not_image)
 }
 
 /// Encodes an 8-bit gray image as PNG and writes it atomically.

@@ -36,6 +36,22 @@ pub struct CameraFile {
     /// RMS reprojection error of the calibration, pixels (`camera.json`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rms_px: Option<f64>,
+    /// One standard error of the camera's centre from the calibration that wrote it,
+    /// millimetres (`calibrate refine`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub centre_std_mm: Option<f64>,
+    /// One standard error of its orientation, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation_std_deg: Option<f64>,
+}
+
+/// One camera's σ as a rig file may carry it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraStdFile {
+    /// `centre_std_mm`.
+    pub centre_std_mm: f64,
+    /// `rotation_std_deg`.
+    pub rotation_std_deg: f64,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -60,6 +76,8 @@ impl CameraFile {
             rotation: Some(rotation_rows(&camera.camera_from_world.rotation)),
             translation: Some(camera.camera_from_world.translation.vector.into()),
             rms_px: None,
+            centre_std_mm: None,
+            rotation_std_deg: None,
         }
     }
 
@@ -198,9 +216,30 @@ pub fn write_cameras(path: &Path, rig: &Rig) -> Result<(), FileError> {
 /// # Errors
 /// [`FileError::Write`].
 pub fn write_rig(path: &Path, rig: &Rig) -> Result<(), FileError> {
+    write_rig_with_std(path, rig, &[])
+}
+
+/// Writes a rig file whole with each camera's σ (`std[i]` for camera i; cameras beyond
+/// `std` get none).
+///
+/// # Errors
+/// [`FileError::Write`].
+pub fn write_rig_with_std(path: &Path, rig: &Rig, std: &[CameraStdFile]) -> Result<(), FileError> {
     let file = RigFile {
         units: "mm".into(),
-        cameras: rig.cameras.iter().map(CameraFile::from_camera).collect(),
+        cameras: rig
+            .cameras
+            .iter()
+            .enumerate()
+            .map(|(i, camera)| {
+                let s = std.get(i);
+                CameraFile {
+                    centre_std_mm: s.map(|s| s.centre_std_mm),
+                    rotation_std_deg: s.map(|s| s.rotation_std_deg),
+                    ..CameraFile::from_camera(camera)
+                }
+            })
+            .collect(),
     };
     write_json(path, &file)
 }

@@ -1,6 +1,6 @@
 //! Check a path of robot targets on an arm before a program is written: reach, joint limits,
 //! joint speeds and accelerations at the recorded timing, configuration changes and the wrist
-//! singularity; with suggestions (slow down by a factor, move the work object).
+//! singularity; with suggestions (slow down by a factor, a verified `--wobj` to paste).
 //!
 //! Model: every target has up to 16 joint solutions inside the limits ([`inverse_within_limits`]).
 //! One solution per frame is chosen for the whole path at once by dynamic programming
@@ -194,15 +194,11 @@ pub enum Suggestion {
         /// Time scale, > 1.
         factor: f64,
     },
-    /// Move the work object (add this to `--wobj`'s translation), verified to make every
-    /// target reachable within the joint limits.
-    MoveWorkObject {
-        /// The displacement in the robot's base frame, millimetres.
-        by_in_base: Vec3,
-    },
-    /// Use this work object instead (turned and placed in front of the arm), verified to make
-    /// every target reachable within the joint limits: for a world whose z points into the
-    /// table (a rig calibrated from a chessboard lying on it), or a stroke far from the arm.
+    /// Use this work object instead, verified to make every target reachable within the
+    /// joint limits: the given one moved (the nearest translation that works), or, when no
+    /// translation does, turned and placed in front of the arm (for a world whose z points
+    /// into the table, as a rig calibrated from a chessboard lying on it has, or a stroke far
+    /// from the arm).
     UseWorkObject {
         /// The work object in the robot's base frame, ready for `--wobj`.
         base_from_wobj: crate::geometry::Pose,
@@ -215,11 +211,6 @@ impl std::fmt::Display for Suggestion {
             Self::SlowDown { factor } => {
                 write!(f, "slow the trajectory down by a factor of {factor:.2}")
             }
-            Self::MoveWorkObject { by_in_base } => write!(
-                f,
-                "move the work object by ({:.0}, {:.0}, {:.0}) mm in the robot's base frame",
-                by_in_base.x, by_in_base.y, by_in_base.z
-            ),
             Self::UseWorkObject { base_from_wobj } => write!(
                 f,
                 "--wobj \"{}\" puts every frame in reach within the joint ranges (verified)",
@@ -693,7 +684,9 @@ fn suggestions(
     let mut out = Vec::new();
     if report.unreachable_count() > 0 {
         if let Some(by_in_base) = work_object_move(robot, cell, targets, config) {
-            out.push(Suggestion::MoveWorkObject { by_in_base });
+            let mut base_from_wobj = cell.base_from_wobj;
+            base_from_wobj.translation.vector += by_in_base;
+            out.push(Suggestion::UseWorkObject { base_from_wobj });
         } else if let Some(base_from_wobj) = work_object_placement(robot, cell, targets, config) {
             out.push(Suggestion::UseWorkObject { base_from_wobj });
         }

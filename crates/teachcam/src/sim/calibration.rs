@@ -313,11 +313,26 @@ struct CalibrationFile {
 /// offset of its board from the world, the command that calibrates the images). Views are
 /// rendered in parallel; `on_view` is called once per placement.
 ///
+/// All or nothing, as [`super::write_scene`].
+///
 /// # Errors
 /// [`FileError`] when a file cannot be written.
 pub fn write_calibration(
     scene: &CalibrationScene,
     out: &Path,
+    seed: u64,
+    on_view: &(dyn Fn() + Sync),
+) -> Result<(), FileError> {
+    let staged = crate::io::StagedFolder::new(out)?;
+    write_calibration_into(scene, staged.path(), out, seed, on_view)?;
+    staged.commit().map(drop)
+}
+
+/// Writes into `out`; `named` is the folder the files will end up in, for the command they name.
+fn write_calibration_into(
+    scene: &CalibrationScene,
+    out: &Path,
+    named: &Path,
     seed: u64,
     on_view: &(dyn Fn() + Sync),
 ) -> Result<(), FileError> {
@@ -391,7 +406,7 @@ pub fn write_calibration(
             scene.board.inner_cols,
             scene.board.inner_rows,
             scene.board.square_mm,
-            out.display()
+            named.display()
         ),
     };
     crate::io::write_json(&out.join("calibration.json"), &calibration)?;

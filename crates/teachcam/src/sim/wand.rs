@@ -178,13 +178,16 @@ pub fn write_wand_scenario(
         dance.truth.samples.truncate(n);
     }
     let ground = ground_scene(seed);
-    crate::io::create_folder(out)?;
+    // All or nothing, as `write_scene` (whose own staging then happens inside this one).
+    let staged = crate::io::StagedFolder::new(out)?;
+    let out = staged.path();
     super::write_scene(&dance, &out.join("wand"), seed, on_frame)?;
     super::write_scene(&ground, &out.join("ground"), seed ^ 0x67, on_frame)?;
     crate::io::rig::write_cameras(&out.join("cameras.json"), &dance.rig)?;
     crate::io::rig::write_rig(&out.join("rig_true.json"), &dance.rig)?;
     crate::io::wand::write_wand(&out.join("wand.json"), &contract_wand())?;
-    crate::io::tool::write_tool(&out.join("lframe.json"), &ground.tool)
+    crate::io::tool::write_tool(&out.join("lframe.json"), &ground.tool)?;
+    staged.commit().map(drop)
 }
 
 /// Every camera-frame of a scene with an imperfection placed on purpose: `(frame, camera)`.

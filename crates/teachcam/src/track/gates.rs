@@ -439,8 +439,13 @@ fn gather(
                     s.get(camera)?.get(i)
                 });
                 if let Some(shape) = shape
-                    && let Some(ratio) =
-                        size_ratio(rig, *camera, shape, &point.position, tool.marker_diameter_mm)
+                    && let Some(ratio) = size_ratio(
+                        rig,
+                        *camera,
+                        shape,
+                        &point.position,
+                        tool.marker_diameter_mm,
+                    )
                 {
                     evidence.blobs.push((ratio, shape.roundness));
                 }

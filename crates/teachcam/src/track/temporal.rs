@@ -161,7 +161,9 @@ mod tests {
             frames.push(frame(x));
         }
         for f in &mut frames[20..22] {
-            f.tip_in_world = f.tip_in_world.map(|p| p + nalgebra::Vector3::new(0.0, 500.0, 0.0));
+            f.tip_in_world = f
+                .tip_in_world
+                .map(|p| p + nalgebra::Vector3::new(0.0, 500.0, 0.0));
             f.confident = false;
         }
         let check = temporal_outliers(&frames);

@@ -8,6 +8,7 @@
 use nalgebra::{DMatrix, Matrix3, Point2, Vector3};
 
 use crate::geometry::{Pose, pose_from_parts};
+use crate::track::gates::median;
 
 /// Corresponding normalised (undistorted, `K⁻¹`) coordinates of one frame's three wand
 /// markers in cameras a and b, in wand order.
@@ -31,14 +32,7 @@ pub(super) fn relative_pose(frames: &[PairFrame], length_mm: f64) -> Option<Pose
                 .fold(0.0, f64::max)
         })
         .collect();
-    let median = super::median(&errors)?;
-    let mad = super::median(
-        &errors
-            .iter()
-            .map(|e| (e - median).abs())
-            .collect::<Vec<_>>(),
-    )?;
-    let gate = median + SAMPSON_GATE_MADS * 1.4826 * mad;
+    let gate = super::robust_gate(&errors, SAMPSON_GATE_MADS)?;
     let inliers: Vec<usize> = (0..frames.len()).filter(|&i| errors[i] <= gate).collect();
     let e = essential(frames, &inliers)?;
     let (rotation, direction) = decompose(&e, frames, &inliers)?;
@@ -53,7 +47,7 @@ pub(super) fn relative_pose(frames: &[PairFrame], length_mm: f64) -> Option<Pose
             (d > 0.0).then(|| length_mm / d)
         })
         .collect();
-    let scale = super::median(&ratios)?;
+    let scale = median(&ratios)?;
     let pose = pose_from_parts(direction * scale, rotation);
     pose.translation
         .vector
