@@ -132,6 +132,53 @@ fn a_rendered_wand_dance_calibrates_the_rig_within_a_millimetre() {
     assert_eq!(report.posed, report.frames);
     assert!(centre_mm < 1.0, "camera centres off by {centre_mm} mm");
     assert!(rotation_deg < 0.05, "rotations off by {rotation_deg} deg");
+
+    // The issue's stroke: the paper's brush stroke (120 frames) on the same four-camera rig,
+    // its markers projected exactly with 0.009 px of noise (what these renders leave after the
+    // fit, so the rig's error is not hidden under noise), tracked through the wand-calibrated
+    // rig and through the true rig; the issue asks ≤ 1.5×.
+    let (via_wand, via_truth) = (stroke_tip_rms_mm(&grounded), stroke_tip_rms_mm(&scene.rig));
+    eprintln!(
+        "stroke tip RMS: {via_wand:.4} mm through the wand rig, {via_truth:.4} mm through the true rig"
+    );
+    assert!(via_wand <= 1.5 * via_truth, "{via_wand} vs {via_truth} mm");
+}
+
+/// Tip RMS (mm) against the truth of the four-camera stroke tracked through `rig` (every
+/// frame must be posed).
+fn stroke_tip_rms_mm(rig: &Rig) -> f64 {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let stroke = teachcam::sim::build_scene(teachcam::sim::Scenario::FourCameras, 1);
+    assert_eq!(stroke.rig.cameras.len(), rig.cameras.len());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let noise = Normal::new(0.0, 0.009).unwrap();
+    let tracker = teachcam::track::Tracker::new(rig, &stroke.tool, Default::default());
+    let mut sum = 0.0;
+    for sample in &stroke.truth.samples {
+        let truth = sample.pose.unwrap();
+        let world = teachcam::sim::markers_in_world(&stroke.tool, &truth.world_from_tool);
+        let views: Views = stroke
+            .rig
+            .iter()
+            .map(|(id, camera)| {
+                let pixels = world
+                    .iter()
+                    .filter_map(|p| camera.project(p))
+                    .map(|p| {
+                        teachcam::geometry::Pixel::new(
+                            p.x + noise.sample(&mut rng),
+                            p.y + noise.sample(&mut rng),
+                        )
+                    })
+                    .collect();
+                (id, pixels)
+            })
+            .collect();
+        let posed = tracker.track_frame(&views).outcome.unwrap();
+        sum += (posed.tip_in_world - truth.tip_in_world).norm_squared();
+    }
+    (sum / stroke.truth.samples.len() as f64).sqrt()
 }
 
 /// Every frame's exact wand projections plus Gaussian noise of `noise_px`, in shuffled order;
@@ -317,4 +364,129 @@ fn a_short_dance_and_a_wand_in_one_camera_are_refused_and_a_planar_dance_gives_t
             assert!(centre_mm < 1.0 && rotation_deg < 0.05);
         }
     }
+}
+
+/// The observations compared with scipy: `tests/data/wand_observations.csv` (`frame,camera,
+/// marker,u,v`, distorted pixels in wand order) and `wand_observations_rig.json` (the true rig
+/// in camera 0's frame: intrinsics for both solvers, the truth for the script's start).
+fn reference_paths() -> (std::path::PathBuf, std::path::PathBuf) {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    (
+        data.join("wand_observations.csv"),
+        data.join("wand_observations_rig.json"),
+    )
+}
+
+/// Writes the reference input when `TEACHCAM_WRITE_WAND_OBSERVATIONS` is set: 300 frames of
+/// the dance projected exactly through the true rig, 0.05 px of Gaussian noise, kept by
+/// `wand_views` as a recording's would be.
+#[test]
+fn write_the_wand_observations_for_the_scipy_reference_when_asked() {
+    if std::env::var_os("TEACHCAM_WRITE_WAND_OBSERVATIONS").is_none() {
+        return;
+    }
+    let scene = wand_scene(21);
+    let (frames, _) = projected(&scene, 300, 0.05, usize::MAX, 0.0);
+    let wand = contract_wand();
+    let views = wand_views(&scene.rig, &frames, &wand, &WandConfig::default());
+    let mut csv = String::from("frame,camera,marker,u,v\n");
+    for (f, frame) in views.frames.iter().enumerate() {
+        if frame.len() < 2 {
+            continue;
+        }
+        for (id, pixels) in frame {
+            for (k, p) in pixels.iter().enumerate() {
+                csv.push_str(&format!("{f},{},{k},{:.6},{:.6}\n", id.0, p.x, p.y));
+            }
+        }
+    }
+    let (observations, rig) = reference_paths();
+    std::fs::write(observations, csv).unwrap();
+    teachcam::io::rig::write_rig(&rig, &in_camera0_frame(&scene.rig)).unwrap();
+}
+
+/// The wand bundle adjustment against an independent solver on the same observations:
+/// `scripts/reference/wand_bundle_scipy.py` (scipy `least_squares`, its own projection, its
+/// own parameterisation and start) → `tests/data/wand_bundle_scipy.json`. Both minimise the
+/// same cost, so they must reach the same minimum: every camera within a tenth of its σ
+/// (σ from the noise of 0.05 px; the difference is the solvers' convergence, not noise).
+#[test]
+fn the_wand_bundle_reaches_scipys_minimum_on_the_same_observations() {
+    let (observations, rig_path) = reference_paths();
+    let rig = teachcam::io::rig::read_rig(&rig_path).unwrap();
+    let text = std::fs::read_to_string(observations).unwrap();
+    let mut frames: std::collections::BTreeMap<usize, teachcam::calib::wand::WandFrame> =
+        std::collections::BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let v: Vec<&str> = line.split(',').collect();
+        let (f, c, k): (usize, usize, usize) = (
+            v[0].parse().unwrap(),
+            v[1].parse().unwrap(),
+            v[2].parse().unwrap(),
+        );
+        let p = teachcam::geometry::Pixel::new(v[3].parse().unwrap(), v[4].parse().unwrap());
+        frames
+            .entry(f)
+            .or_default()
+            .entry(teachcam::geometry::CameraId(c))
+            .or_insert([p; 3])[k] = p;
+    }
+    let frames: Vec<_> = frames.into_values().collect();
+    let result = calibrate_wand(&rig, &frames, &contract_wand(), &WandConfig::default()).unwrap();
+    assert_eq!(result.frames_used, frames.len());
+    assert!(result.cameras.iter().all(|c| c.dropped == 0));
+    let reference: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/data/wand_bundle_scipy.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    for (c, (camera, fit)) in result.rig.cameras.iter().zip(&result.cameras).enumerate() {
+        let r = &reference["cameras"][c];
+        let centre: Vec<f64> = (0..3)
+            .map(|i| r["centre_mm"][i].as_f64().unwrap())
+            .collect();
+        let centre = teachcam::geometry::Point3::new(centre[0], centre[1], centre[2]);
+        let rows: Vec<Vec<f64>> = (0..3)
+            .map(|i| {
+                (0..3)
+                    .map(|j| r["rotation"][i][j].as_f64().unwrap())
+                    .collect()
+            })
+            .collect();
+        let theirs =
+            nalgebra::UnitQuaternion::from_matrix(&nalgebra::Matrix3::from_fn(|i, j| rows[i][j]));
+        let angle = camera
+            .camera_from_world
+            .rotation
+            .angle_to(&theirs)
+            .to_degrees();
+        let moved = (camera.center_in_world() - centre).norm();
+        eprintln!(
+            "{}: vs scipy {moved:.2e} mm, {angle:.2e} deg (σ {:.4} mm, {:.5} deg)",
+            camera.name, fit.centre_std_mm, fit.rotation_std_deg
+        );
+        assert!(
+            moved <= 0.1 * fit.centre_std_mm + 1e-9,
+            "{}: {moved} mm",
+            camera.name
+        );
+        assert!(
+            angle <= 0.1 * fit.rotation_std_deg + 1e-9,
+            "{}: {angle} deg",
+            camera.name
+        );
+    }
+    let rms = reference["reprojection_rms_px"].as_f64().unwrap();
+    let ours = (result
+        .cameras
+        .iter()
+        .map(|c| c.rms_px * c.rms_px * c.frames as f64)
+        .sum::<f64>()
+        / result.cameras.iter().map(|c| c.frames as f64).sum::<f64>())
+    .sqrt();
+    eprintln!("reprojection rms: ours {ours:.6} px, scipy {rms:.6} px");
+    assert!((ours - rms).abs() < 1e-4 * rms.max(1e-3), "{ours} vs {rms}");
 }
