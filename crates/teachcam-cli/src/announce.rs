@@ -25,6 +25,13 @@ pub fn say(line: &str) {
     }
 }
 
+/// `warning: what` on stderr, whatever `--quiet` says: a value that is likely wrong, like an
+/// error, must be seen.
+#[expect(clippy::print_stderr, reason = "the warning is the command's output")]
+pub fn warn(what: &str) {
+    eprintln!("warning: {what}");
+}
+
 /// `wrote A, B, C: what` on stderr unless `--quiet`.
 pub fn wrote(paths: &[PathBuf], what: &str) {
     let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();

@@ -14,13 +14,26 @@ use clap::{Parser, Subcommand};
 mod announce;
 mod cmd;
 mod flags;
+mod load;
 mod plot;
 mod progress;
+
+/// The whole path on simulated data, from an empty folder; every command's own examples
+/// (`teachcam COMMAND --help`) run in the folder these leave behind.
+const EXAMPLES: &str = r#"Examples:
+  teachcam demo
+  teachcam simulate --scenario paper --out rec
+  teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --markers-out markers.csv
+  teachcam smooth raw.csv --method lowpass --cutoff 10 -o smooth.csv
+  teachcam check smooth.csv --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0"
+  teachcam export rapid smooth.csv --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o stroke.mod
+
+Every command's examples (`teachcam COMMAND --help`) run in the folder these leave behind."#;
 
 /// Program an industrial robot by demonstration: marker tracking with calibrated cameras,
 /// trajectory smoothing, robot checks and robot programs (ABB RAPID, KUKA KRL, UR URScript).
 #[derive(Debug, Parser)]
-#[command(name = "teachcam", version, about, long_about = None)]
+#[command(name = "teachcam", version, about, long_about = None, after_help = EXAMPLES)]
 struct Cli {
     /// Print nothing on success (errors are still printed).
     #[arg(long, short, global = true)]

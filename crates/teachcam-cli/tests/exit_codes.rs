@@ -30,25 +30,32 @@ fn subcommands(help: &str) -> Vec<String> {
         .collect()
 }
 
-/// Every leaf command path (`["track"]`, `["c3d", "info"]`, ...).
-fn command_paths(dir: &Path) -> Vec<Vec<String>> {
-    let mut paths = Vec::new();
+/// Every command of the tree with its `--help` text, the root (`[]`) first, each command
+/// before its subcommands, in the order the help lists them.
+fn command_tree(dir: &Path) -> Vec<(Vec<String>, String)> {
+    let mut nodes = Vec::new();
     let mut todo: Vec<Vec<String>> = vec![Vec::new()];
     while let Some(path) = todo.pop() {
         let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
         args.push("--help");
         let help = text(&teachcam_in(dir, &args).stdout);
-        let children = subcommands(&help);
-        if children.is_empty() {
-            paths.push(path);
-        } else {
-            for child in children {
-                let mut p = path.clone();
-                p.push(child);
-                todo.push(p);
-            }
+        for child in subcommands(&help).into_iter().rev() {
+            let mut p = path.clone();
+            p.push(child);
+            todo.push(p);
         }
+        nodes.push((path, help));
     }
+    nodes
+}
+
+/// Every leaf command path (`["track"]`, `["c3d", "info"]`, ...).
+fn command_paths(dir: &Path) -> Vec<Vec<String>> {
+    let mut paths: Vec<Vec<String>> = command_tree(dir)
+        .into_iter()
+        .filter(|(_, help)| subcommands(help).is_empty())
+        .map(|(path, _)| path)
+        .collect();
     paths.sort();
     paths
 }
@@ -260,4 +267,139 @@ fn the_catalogue_of_usage_mistakes_and_missing_files_exits_as_the_rule_says() {
         .collect();
     left.sort();
     assert_eq!(left, ["raw.csv"], "a refused command wrote something");
+}
+
+/// The lines of a help text's `Examples:` section that run `teachcam`.
+fn examples(help: &str) -> Vec<String> {
+    help.lines()
+        .skip_while(|l| l.trim_end() != "Examples:")
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .map(str::trim)
+        .filter(|l| l.starts_with("teachcam "))
+        .map(str::to_string)
+        .collect()
+}
+
+/// Examples not run here, by their start, and why.
+const NOT_RUN: &[(&str, &str)] = &[
+    ("teachcam record --source v4l2:", "needs V4L2 cameras"),
+    ("teachcam live --source v4l2:", "needs V4L2 cameras"),
+    (
+        "teachcam simulate --scenario wand",
+        "renders 430 frames x 4 cameras (about 30 s of CPU); tests/calibrate_wand_cli.rs runs it",
+    ),
+    (
+        "teachcam calibrate wand",
+        "needs `simulate --scenario wand` (about 30 s of CPU); tests/calibrate_wand_cli.rs runs it",
+    ),
+    (
+        "teachcam import motive",
+        "needs an OptiTrack Motive export; tests/repro_filters.rs imports one",
+    ),
+];
+
+/// `touched.csv` for `align`: four points of the work object touched by the robot, the work
+/// object 350 mm in front of the base and 100 mm up (the examples' `--wobj`).
+fn write_touched(dir: &Path) {
+    let mut text = String::from("x_wobj_mm,y_wobj_mm,z_wobj_mm,x_base_mm,y_base_mm,z_base_mm\n");
+    for [x, y, z] in [
+        [0.0, 0.0, 0.0],
+        [200.0, 0.0, 0.0],
+        [0.0, 150.0, 0.0],
+        [50.0, 60.0, 80.0],
+    ] {
+        text.push_str(&format!("{x},{y},{z},{},{y},{}\n", x + 350.0, z + 100.0));
+    }
+    std::fs::write(dir.join("touched.csv"), text).unwrap();
+}
+
+/// `pivot.csv` for `pivot`: the simulated brush turned about its tip (`rec/tool.json`'s
+/// `tip`, 5,20,-190) resting at (10, 20, 30) in the world, 25° about two axes.
+fn write_pivot(dir: &Path) {
+    use nalgebra::{UnitQuaternion, Vector3};
+    use teachcam::geometry::{FrameIndex, Point3, pose_from_parts};
+    use teachcam::trajectory::{Sample, ToolPose, Trajectory};
+    let tip_in_tool = Point3::new(5.0, 20.0, -190.0);
+    let rest_in_world = Point3::new(10.0, 20.0, 30.0);
+    let samples = (0..60)
+        .map(|i| {
+            let a = f64::from(i) / 60.0 * std::f64::consts::TAU;
+            let rotation =
+                UnitQuaternion::from_euler_angles(0.44 * a.sin(), 0.44 * a.cos(), 0.3 * a);
+            let translation = rest_in_world.coords - rotation * tip_in_tool.coords;
+            let world_from_tool = pose_from_parts(Vector3::from(translation), rotation);
+            Sample::measured(
+                FrameIndex(i as usize),
+                f64::from(i) / 30.0,
+                ToolPose {
+                    world_from_tool,
+                    tip_in_world: world_from_tool * tip_in_tool,
+                    markers: 4,
+                    rms_mm: 0.01,
+                },
+            )
+        })
+        .collect();
+    teachcam::io::trajectory::write_trajectory(&dir.join("pivot.csv"), &Trajectory { samples })
+        .unwrap();
+}
+
+/// Issues 18 and 19: every command's `--help` has examples, and each runs as written (through
+/// `sh`, globs and redirections included) in one folder: the root's examples first (the
+/// demo, a simulated recording tracked, smoothed, checked and exported), then each command's,
+/// in the order of the tree, so that a command's examples may use what its parent's wrote.
+/// `check` examples must pass on the robot (issue 18: they used to fail).
+#[test]
+fn every_help_example_runs_as_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    let tree = command_tree(root);
+    let without: Vec<String> = tree
+        .iter()
+        .filter(|(_, help)| examples(help).is_empty())
+        .map(|(path, _)| format!("teachcam {}", path.join(" ")))
+        .collect();
+    assert!(
+        without.is_empty(),
+        "no Examples: in the help of {without:?}"
+    );
+    write_touched(root);
+    write_pivot(root);
+    let binary = env!("CARGO_BIN_EXE_teachcam");
+    let mut ran: Vec<String> = Vec::new();
+    let mut failures = Vec::new();
+    for (_, help) in &tree {
+        for example in examples(help) {
+            if ran.contains(&example) {
+                continue;
+            }
+            ran.push(example.clone());
+            if let Some((_, why)) = NOT_RUN.iter().find(|(start, _)| example.starts_with(start)) {
+                eprintln!("not run: {example} ({why})");
+                continue;
+            }
+            let line = format!("'{binary}'{}", &example["teachcam".len()..]);
+            let started = std::time::Instant::now();
+            let o = Command::new("sh")
+                .args(["-c", &line])
+                .current_dir(root)
+                .output()
+                .unwrap();
+            eprintln!("{:6.1} s  {example}", started.elapsed().as_secs_f64());
+            let stdout = text(&o.stdout);
+            let failed = !o.status.success()
+                || (example.starts_with("teachcam check ")
+                    && !stdout.contains("ok: the robot can run this trajectory"));
+            if failed {
+                failures.push(format!("{example}\n{stdout}{}", text(&o.stderr)));
+            }
+        }
+    }
+    assert!(ran.len() >= 40, "{} examples", ran.len());
+    assert!(
+        failures.is_empty(),
+        "examples that fail:\n{}",
+        failures.join("\n")
+    );
 }

@@ -338,7 +338,7 @@ fn help_texts_explain_the_robot_commands() {
     for (command, flags) in [
         (
             "check",
-            &["--robot", "--wobj", "--tcp", "--joints-out", "Example:"][..],
+            &["--robot", "--wobj", "--tcp", "--joints-out", "Examples:"][..],
         ),
         (
             "export",
@@ -348,11 +348,11 @@ fn help_texts_explain_the_robot_commands() {
                 "urscript",
                 "--force",
                 "--tolerance-mm",
-                "Example:",
+                "Examples:",
             ][..],
         ),
-        ("align", &["x_wobj_mm", "Example:"][..]),
-        ("pivot", &["--min-rotation-deg", "Example:"][..]),
+        ("align", &["x_wobj_mm", "Examples:"][..]),
+        ("pivot", &["--min-rotation-deg", "Examples:"][..]),
     ] {
         let out = teachcam(&[command, "--help"]);
         assert!(out.status.success());
@@ -586,4 +586,154 @@ fn robots_from_files_and_each_makers_joints_table() {
     assert_eq!(o.status.code(), Some(1));
     let err = text(&o.stderr);
     assert!(err.contains("arm.json") && err.contains("\"dh\""), "{err}");
+}
+
+/// The `warning:` lines of a command's stderr.
+fn warnings(o: &Output) -> Vec<String> {
+    text(&o.stderr)
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .map(str::to_string)
+        .collect()
+}
+
+/// Issue 19: lengths likely given in metres (or micrometres) pass every format check, so the
+/// commands that load them say so on one line naming the value: a TCP under 5 mm from the
+/// flange, a tool's markers under 1 mm apart, a rig whose cameras all sit within 50 mm of the
+/// origin or one beyond 50 m. Millimetre values, and the default TCP on the flange, say nothing.
+#[test]
+fn lengths_likely_in_the_wrong_unit_are_warned_on_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let trajectory = file("stroke.csv");
+    write_stroke(Path::new(&trajectory), 1.0);
+
+    // --tcp "0,0,0.15,...": the brush's 0.15 m given as metres.
+    let metres_tcp = "0,0,0.15,1,0,0,0";
+    let o = teachcam(&[
+        "check",
+        &trajectory,
+        "--robot",
+        "irb120",
+        "--wobj",
+        WOBJ,
+        "--tcp",
+        metres_tcp,
+    ]);
+    let w = warnings(&o);
+    assert_eq!(w.len(), 1, "{}", text(&o.stderr));
+    for word in ["0.15 mm from the flange", "under 5 mm", "metres", "0,0,200"] {
+        assert!(w[0].contains(word), "{} lacks {word}", w[0]);
+    }
+    for tcp in [TCP, "0,0,0,1,0,0,0"] {
+        let o = teachcam(&[
+            "check",
+            &trajectory,
+            "--robot",
+            "irb120",
+            "--wobj",
+            WOBJ,
+            "--tcp",
+            tcp,
+        ]);
+        assert!(warnings(&o).is_empty(), "--tcp {tcp}: {}", text(&o.stderr));
+    }
+
+    // A tool whose two markers are 0.6 mm apart (its others tens of millimetres away: a tool
+    // wholly in metres is refused as collinear by the reader already).
+    std::fs::write(
+        file("tool_m.json"),
+        r#"{"name": "brush", "marker_diameter_mm": 0.5,
+            "markers": [[0, 0, 0], [0.6, 0, 0], [0, 70, 0], [30, 40, 20]], "tip": [0, 0, -180]}"#,
+    )
+    .unwrap();
+    std::fs::write(
+        file("tool.json"),
+        r#"{"name": "brush", "marker_diameter_mm": 10,
+            "markers": [[0, 0, 0], [50, 0, 0], [0, 70, 0], [30, 40, 20]], "tip": [0, 0, -180]}"#,
+    )
+    .unwrap();
+    let o = teachcam(&["tool-check", &file("tool_m.json")]);
+    let w = warnings(&o);
+    assert_eq!(w.len(), 1, "{}", text(&o.stderr));
+    for word in [
+        "tool_m.json",
+        "markers 0 and 1 are 0.6 mm apart",
+        "under 1 mm",
+        "metres",
+    ] {
+        assert!(w[0].contains(word), "{} lacks {word}", w[0]);
+    }
+    assert!(warnings(&teachcam(&["tool-check", &file("tool.json")])).is_empty());
+
+    // Rigs: two cameras 1 m above the work object, given in mm, in metres and in micrometres.
+    let rig = |name: &str, height: f64| {
+        let camera = |n: usize, x: f64| {
+            format!(
+                r#"{{"name": "cam{n}", "image_size": [1280, 1024], "fx": 1791, "fy": 1791,
+                    "cx": 639.5, "cy": 511.5, "distortion": [0, 0, 0, 0, 0],
+                    "rotation": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "translation": [{x}, 0, {height}]}}"#
+            )
+        };
+        let text = format!(
+            r#"{{"units": "mm", "cameras": [{}, {}]}}"#,
+            camera(0, 0.0),
+            camera(1, -height / 4.0)
+        );
+        std::fs::write(file(name), text).unwrap();
+        file(name)
+    };
+    let pose = "0,0,1000,1,0,0,0";
+    for (name, height, words) in [
+        (
+            "rig_m.json",
+            1.0,
+            &[
+                "rig_m.json",
+                "within 1.031 mm of the world origin",
+                "cam1",
+                "metres",
+            ][..],
+        ),
+        (
+            "rig_um.json",
+            1.0e9,
+            &[
+                "rig_um.json",
+                "cam1's centre is 1030776.4 m",
+                "over 50 m",
+                "micrometres",
+            ][..],
+        ),
+    ] {
+        let rig = rig(name, height);
+        let o = teachcam(&[
+            "uncertainty",
+            "--rig",
+            &rig,
+            "--tool",
+            &file("tool.json"),
+            "--pose",
+            pose,
+            "--trials",
+            "10",
+        ]);
+        let w = warnings(&o);
+        assert_eq!(w.len(), 1, "{name}: {}", text(&o.stderr));
+        for word in words {
+            assert!(w[0].contains(word), "{} lacks {word}", w[0]);
+        }
+    }
+    let o = teachcam(&[
+        "uncertainty",
+        "--rig",
+        &rig("rig.json", 1000.0),
+        "--tool",
+        &file("tool.json"),
+        "--pose",
+        "0,0,0,1,0,0,0",
+        "--trials",
+        "10",
+    ]);
+    assert!(warnings(&o).is_empty(), "{}", text(&o.stderr));
 }

@@ -209,3 +209,115 @@ fn bad_inputs_are_refused_with_the_cause() {
         "{diagnostics}"
     );
 }
+
+/// Issue 19: `track --detections` tracks `detect`'s blobs, so a recording tracked from its
+/// images and from its `detections.csv` gives the same trajectory and diagnostics, byte for
+/// byte; a file naming a camera the rig lacks, or a frame past the recording, is refused.
+#[test]
+fn tracking_detect_output_gives_the_trajectory_of_the_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    simulate("occluded", &rec, 30);
+    let file = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (rig, tool) = (rec.join("rig.json"), rec.join("tool.json"));
+    let (rig, tool) = (rig.to_str().unwrap(), tool.to_str().unwrap());
+    let r = rec.to_str().unwrap();
+    let from_images = teachcam(&[
+        "track",
+        r,
+        "--rig",
+        rig,
+        "--tool",
+        tool,
+        "-o",
+        &file("images.csv"),
+        "--diagnostics",
+        &file("images-diag.csv"),
+    ]);
+    assert!(
+        from_images.status.success(),
+        "{}",
+        String::from_utf8_lossy(&from_images.stderr)
+    );
+    let detect = teachcam(&[
+        "detect",
+        r,
+        "--rig",
+        rig,
+        "--tool",
+        tool,
+        "-o",
+        &file("d.csv"),
+    ]);
+    assert!(
+        detect.status.success(),
+        "{}",
+        String::from_utf8_lossy(&detect.stderr)
+    );
+    let from_detections = teachcam(&[
+        "track",
+        r,
+        "--detections",
+        &file("d.csv"),
+        "--rig",
+        rig,
+        "--tool",
+        tool,
+        "-o",
+        &file("detections.csv"),
+        "--diagnostics",
+        &file("detections-diag.csv"),
+    ]);
+    assert!(
+        from_detections.status.success(),
+        "{}",
+        String::from_utf8_lossy(&from_detections.stderr)
+    );
+    let read = |name: &str| std::fs::read_to_string(file(name)).unwrap();
+    assert_eq!(read("images.csv").lines().count(), 31);
+    assert_eq!(read("images.csv"), read("detections.csv"));
+    assert_eq!(read("images-diag.csv"), read("detections-diag.csv"));
+
+    let detections = read("d.csv");
+    for (name, text, words) in [
+        (
+            "stranger.csv",
+            detections.replacen("\ncam1,", "\ncam7,", 1),
+            &[
+                "stranger.csv",
+                "camera cam7 is not in the rig",
+                "cam0, cam1, cam2",
+            ][..],
+        ),
+        (
+            "beyond.csv",
+            format!("{detections}cam0,30,100,100,4,50,1,0.01,200\n"),
+            &[
+                "beyond.csv",
+                "cam0 frame 30 is beyond the recording",
+                "30 frames",
+            ][..],
+        ),
+    ] {
+        std::fs::write(file(name), text).unwrap();
+        let o = teachcam(&[
+            "track",
+            r,
+            "--detections",
+            &file(name),
+            "--rig",
+            rig,
+            "--tool",
+            tool,
+            "-o",
+            &file("refused.csv"),
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        for word in words {
+            assert!(stderr.contains(word), "{stderr} lacks {word}");
+        }
+        assert!(!Path::new(&file("refused.csv")).exists());
+    }
+}

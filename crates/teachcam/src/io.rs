@@ -1,11 +1,13 @@
 //! File formats of the user-facing contract (`CONTRACT.md`): rig and tool JSON, recording
-//! folders, trajectory CSV. Every reader checks what it reads and names the file and the field
+//! folders, detections and trajectory CSV. Every reader checks what it reads and names the file and the field
 //! (or line) it refuses; every writer writes a whole file or nothing (a temporary file in the
 //! same folder, renamed over the target once complete), and a command's several files all or
 //! none ([`output`]).
 
 pub mod camera_file;
+pub mod detections;
 pub mod output;
+pub mod plausible;
 pub mod recording;
 pub mod rig;
 pub mod robot;

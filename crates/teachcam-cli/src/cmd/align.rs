@@ -17,9 +17,9 @@ use crate::Rejected;
 ///
 /// The CSV has the header `x_wobj_mm,y_wobj_mm,z_wobj_mm,x_base_mm,y_base_mm,z_base_mm` and one
 /// point per line.
-///
-/// Example: `teachcam align touched.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam align touched.csv"#)]
 pub struct Args {
     /// Point pairs CSV.
     pub points: PathBuf,

@@ -12,9 +12,10 @@ use teachcam::io::{Output, check_outputs};
 use crate::Rejected as _;
 
 /// Inspect C3D files written by Vicon, Qualisys, OptiTrack, NDI and others.
-///
-/// Example: `teachcam c3d info walk.c3d`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam c3d export raw.csv --tool rec/tool.json --measured markers.csv -o brush.c3d
+  teachcam c3d info brush.c3d"#)]
 pub struct Args {
     #[command(subcommand)]
     pub command: C3dCommand,
@@ -35,9 +36,9 @@ pub enum C3dCommand {
 /// aligned onto the mean first, so a slowly moving cluster works too), in the tool frame with
 /// its origin at the first marker, x towards the second and the third in the xy-plane. Prints
 /// JSON with the frames used and each marker's RMS scatter about its mean, millimetres.
-///
-/// Example: `teachcam c3d tool static.c3d --markers Probe1,Probe2,Probe3,Probe4 -o probe.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam c3d tool brush.c3d --markers brush:M0,brush:M1,brush:M2,brush:M3 -o probe.json"#)]
 pub struct ToolArgs {
     /// The C3D file.
     pub file: PathBuf,
@@ -64,9 +65,10 @@ pub struct ToolArgs {
 /// Write the tool's markers (`<tool>:M0`, ...; registered, or measured with `--measured`) and
 /// tip (`<tool>:tip`) in every frame of a trajectory as a C3D file (Intel, float storage, millimetres; residual = the registration
 /// RMS in steps of 0.001 mm). Frames without a pose are gaps.
-///
-/// Example: `teachcam c3d export raw.csv --tool brush.json --measured markers.csv -o brush.c3d`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam c3d export raw.csv --tool rec/tool.json --measured markers.csv -o brush.c3d
+  teachcam c3d export raw.csv --tool rec/tool.json -o registered.c3d"#)]
 pub struct ExportArgs {
     /// The trajectory CSV.
     pub trajectory: PathBuf,
@@ -89,9 +91,10 @@ const EXPORT_RESIDUAL_STEP_MM: f64 = 0.001;
 /// Print a JSON summary of a C3D file on stdout: `labels`, `rate_hz`, `frames`, `units`,
 /// `first_frame` (one `[x, y, z]` per label in the file's units, `null` where the sample is
 /// invalid), and how the file stores its data.
-///
-/// Example: `teachcam c3d info trial.c3d > trial.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam c3d info brush.c3d
+  teachcam c3d info brush.c3d > brush.json"#)]
 pub struct InfoArgs {
     /// The C3D file.
     pub file: PathBuf,
@@ -183,7 +186,7 @@ fn run_export(args: &ExportArgs) -> anyhow::Result<()> {
     inputs.extend(args.measured.as_deref());
     check_outputs(&[output], &inputs)?;
     let trajectory = teachcam::io::trajectory::read_trajectory(&args.trajectory).rejected()?;
-    let tool = teachcam::io::tool::read_tool(&args.tool).rejected()?;
+    let tool = crate::load::tool(&args.tool)?;
     let points = match &args.measured {
         None => c3d::points_from_trajectory(&trajectory, &tool),
         Some(path) => {

@@ -31,9 +31,10 @@ use crate::Rejected;
 /// `intrinsics` calibrates one camera (Zhang's method, then Levenberg–Marquardt with OpenCV's
 /// 5-coefficient distortion); `rig` puts every camera of a rig in one world frame set by a board
 /// lying on the work object, then adjusts them all together.
-///
-/// Example: `teachcam calibrate intrinsics --pattern chessboard --inner 9x6 --square 25 left*.jpg -o camera.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam calibrate rig --pattern chessboard --inner 9x6 --square 50 boards --world world -o rig.json
+  teachcam calibrate intrinsics --pattern chessboard --inner 9x6 --square 50 boards/cam0/*.png -o camera.json"#)]
 pub struct Args {
     #[command(subcommand)]
     pub command: Calibrate,
@@ -87,9 +88,10 @@ pub enum CameraFormat {
 /// Corners are found in each image (images without a complete board are named and skipped), Zhang's closed form, then
 /// Levenberg–Marquardt over fx, fy, cx, cy, k1, k2, p1, p2, k3 and every board pose. Prints the
 /// RMS reprojection error per image and names outlier images.
-///
-/// Example: `teachcam calibrate intrinsics --pattern chessboard --inner 9x6 --square 25 left*.jpg -o camera.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam calibrate intrinsics --pattern chessboard --inner 9x6 --square 50 boards/cam0/*.png -o camera.json
+  teachcam calibrate intrinsics --pattern chessboard --inner 9x6 --square 50 boards/cam0/*.png --format opencv -o camera.yaml"#)]
 pub struct IntrinsicsArgs {
     #[command(flatten)]
     pub pattern: PatternArgs,
@@ -129,9 +131,11 @@ pub struct IntrinsicsArgs {
 /// residual and the standard errors of its centre, its rotation and its principal point, which
 /// limits the rotation (σ falls as one over the root of the camera's image count: about 40
 /// images per camera give 0.006° at 0.025 px of corner noise).
-///
-/// Example: `teachcam calibrate rig --pattern chessboard --inner 9x6 --square 40 calib/ --world table -o rig.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam calibrate rig --pattern chessboard --inner 9x6 --square 50 boards --world world -o rig.json
+  teachcam calibrate rig --pattern chessboard --inner 9x6 --square 50 boards --world world --intrinsics cam0=camera.json -o rig.json
+  teachcam calibrate rig --pattern chessboard --inner 9x6 --square 50 boards --world-camera cam0 -o rig-cam0.json"#)]
 #[command(group(clap::ArgGroup::new("world_frame").required(true).multiple(false)))]
 pub struct RigArgs {
     #[command(flatten)]

@@ -35,10 +35,11 @@ use crate::Rejected;
 /// "sign_corrections": [6]} for a spherical wrist (ROS-Industrial opw_kinematics parameters) or
 /// "dh": {"d1_mm", "a2_mm", "a3_mm", "d4_mm", "d5_mm", "d6_mm"} for a UR-like arm, and
 /// "joints": six {"min_deg", "max_deg", "max_speed_deg_s"}}.
-///
-/// Example: `teachcam check smooth.csv --robot irb120 --wobj "350,0,150,1,0,0,0" --tcp
-/// "0,0,150,1,0,0,0" --joints-out joints.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam check smooth.csv --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" --joints-out joints.csv
+  teachcam check smooth.csv --robot ur5e --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0"
+  teachcam check smooth.csv --robot kr6-r700 --wobj "350,0,100,1,0,0,0" --tcp "200,0,0,0.7071068,0,-0.7071068,0""#)]
 pub struct Args {
     /// Trajectory CSV (from `track` or `smooth`).
     pub trajectory: PathBuf,
@@ -105,6 +106,7 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         base_from_wobj: parse_pose(&args.wobj, "--wobj")?,
         flange_from_tcp: parse_pose(&args.tcp, "--tcp")?,
     };
+    crate::load::check_tcp(&cell.flange_from_tcp);
     if !(args.speed_fraction > 0.0 && args.speed_fraction <= 1.0) {
         bail!(
             "--speed-fraction {}: must be in (0, 1]",
@@ -112,12 +114,7 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         );
     }
     let tip_rotation = match &args.tool {
-        Some(path) => {
-            teachcam::io::tool::read_tool(path)
-                .rejected()?
-                .tool_from_tcp
-                .rotation
-        }
+        Some(path) => crate::load::tool(path)?.tool_from_tcp.rotation,
         None => UnitQuaternion::identity(),
     };
     let mut trajectory = read_trajectory(trajectory).rejected()?;

@@ -34,9 +34,9 @@ const PAPER_TIP_UNCERTAINTY_MM: f64 = 0.26;
 /// uncertainty study, the IRB 120 check and the RAPID export. Prints the accuracy against the
 /// simulator's ground truth and the time of each stage; writes every file and an HTML report
 /// into the output folder.
-///
-/// Example: `teachcam demo --out demo-run`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam demo"#)]
 pub struct Args {
     /// Folder for the recording, trajectories, robot program and report (created).
     #[arg(long, default_value = "teachcam-demo")]
@@ -123,6 +123,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         gates: super::track::GateFlags::default(),
         time_offsets: None,
         time_offsets_out: None,
+        detections: None,
     })?;
     timed("detect + track", start);
     let raw = read_trajectory(&raw_path)?;

@@ -1,6 +1,5 @@
 //! `teachcam detect`: marker blobs with sub-pixel centres in every frame of a recording.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use std::collections::BTreeMap;
@@ -9,7 +8,7 @@ use anyhow::Context;
 use teachcam::camera::Rig;
 use teachcam::detect::{Blob, CenterMethod, DetectConfig, Threshold};
 use teachcam::geometry::CameraId;
-use teachcam::io::{Output, check_outputs, rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::io::{Output, check_outputs, write_atomically};
 use teachcam::pipeline::{CameraSetup, DetectStream, DetectedSet};
 use teachcam::source::folder::FolderSource;
 use teachcam::source::{FrameSource, SourceCamera};
@@ -28,14 +27,15 @@ use crate::progress::Progress;
 ///
 /// Output columns: `camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak`
 /// (camera = the sub-folder's or video's name, frame = 0-based index, centre in OpenCV pixels, radius of
-/// the equal-flux disc, predicted centre noise per axis).
+/// the equal-flux disc, predicted centre noise per axis), every number to the last bit so that
+/// `teachcam track --detections` tracks these very blobs.
 ///
 /// With `--rig` and a marker size (`--tool` or `--marker-diameter`), the size limits follow from
 /// each camera's focal length and `--near`/`--far`, and the `refined` centre is moved from the
 /// centre of the sphere's elliptical image to the projection of the sphere's centre.
-///
-/// Example: `teachcam detect rec -o detections.csv --rig rec/rig.json --tool rec/tool.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam detect rec -o detections.csv --rig rec/rig.json --tool rec/tool.json"#)]
 pub struct Args {
     /// Recording folder: one sub-folder of PNG frames or one video file per camera.
     pub recording: PathBuf,
@@ -115,7 +115,7 @@ pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result
         ));
     }
     let diameter_mm = match (&args.tool, args.marker_diameter) {
-        (Some(tool), _) => Some(read_tool(tool).rejected()?.marker_diameter_mm),
+        (Some(tool), _) => Some(crate::load::tool(tool)?.marker_diameter_mm),
         (None, Some(d)) if d.is_finite() && d > 0.0 => Some(d),
         (None, Some(d)) => {
             return Err(anyhow::anyhow!(
@@ -124,11 +124,7 @@ pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result
         }
         (None, None) => None,
     };
-    let rig: Option<Rig> = args
-        .rig
-        .as_deref()
-        .map(|path| read_rig(path).rejected())
-        .transpose()?;
+    let rig: Option<Rig> = args.rig.as_deref().map(crate::load::rig).transpose()?;
     cameras
         .iter()
         .map(|frames| {
@@ -253,40 +249,12 @@ pub fn detect_folder(
 
 /// The CSV text of the detections.
 fn csv_text(recording: &DetectedRecording) -> String {
-    let mut text =
-        String::from("camera,frame,x_px,y_px,radius_px,area_px,roundness,center_std_px,peak\n");
-    for f in recording
-        .sets
-        .iter()
-        .flat_map(|s| s.cameras.iter().flatten())
-    {
-        let camera = csv_field(&f.camera);
-        for b in &f.blobs {
-            // Writing to a String cannot fail.
-            let _ = writeln!(
-                text,
-                "{camera},{},{:.4},{:.4},{:.3},{},{:.3},{:.4},{}",
-                f.frame,
-                b.center.x,
-                b.center.y,
-                b.radius_px,
-                b.area_px,
-                b.roundness,
-                b.center_std_px,
-                b.peak
-            );
-        }
-    }
-    text
-}
-
-/// A CSV field, quoted when it holds a comma, a quote or a line break.
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
+    teachcam::io::detections::detections_csv(
+        recording
+            .sets
+            .iter()
+            .flat_map(|s| s.cameras.iter().flatten()),
+    )
 }
 
 /// Run the command.

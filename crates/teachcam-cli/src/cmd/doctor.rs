@@ -6,14 +6,12 @@ use std::path::PathBuf;
 use teachcam::correspond::Views;
 use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
-use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::pipeline::CameraSetup;
 use teachcam::track::Tracker;
 use teachcam::track::gates::{
     GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
 
-use crate::Rejected;
 use crate::cmd::detect::{Frames, detect_folder};
 use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
 
@@ -28,9 +26,10 @@ use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
 /// with advice: a camera that disagrees with the others (recalibrate it), a pair that
 /// disagrees, marker images too small (move closer), blobs less round than the cut (a
 /// `--min-roundness` value), a tool whose distances are not in the data.
-///
-/// Example: `teachcam doctor rec --rig rec/rig.json --tool rec/tool.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam doctor rec --rig rec/rig.json --tool rec/tool.json
+  teachcam doctor rec --rig rec/rig.json --tool rec/tool.json --json > doctor.json"#)]
 pub struct Args {
     /// Recording folder: one sub-folder of PNG frames or one video file per rig camera.
     pub recording: PathBuf,
@@ -76,8 +75,8 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
             args.far
         );
     }
-    let rig = read_rig(&args.rig).rejected()?;
-    let tool = read_tool(&args.tool).rejected()?;
+    let rig = crate::load::rig(&args.rig)?;
+    let tool = crate::load::tool(&args.tool)?;
     let recording = detect_folder(&args.recording, None, Frames::All, |_| {
         Ok(rig
             .cameras

@@ -44,10 +44,12 @@ pub enum Dialect {
 /// TCP offset is assumed, and the program's comment says so. A KRL program's DEF name is the
 /// output file's name, which must then be a KRL name (letters, digits, underscores, starting
 /// with a letter, at most 24 characters).
-///
-/// Example: `teachcam export rapid smooth.csv --wobj "350,0,150,1,0,0,0" --tcp
-/// "0,0,150,1,0,0,0" -o stroke.mod`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam export rapid smooth.csv --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o stroke.mod
+  teachcam export krl smooth.csv --robot kr6-r700 --wobj "350,0,100,1,0,0,0" --tcp "200,0,0,0.7071068,0,-0.7071068,0" -o stroke.src
+  teachcam export urscript smooth.csv --robot ur5e --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o stroke.script
+  teachcam export csv smooth.csv --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o targets.csv"#)]
 pub struct Args {
     /// Program dialect.
     #[arg(value_enum)]

@@ -6,14 +6,14 @@ use std::path::{Path, PathBuf};
 use anyhow::bail;
 use teachcam::c3d::{self, MarkerSelection, PointData, ToolFromDataConfig, TrackMarkersConfig};
 use teachcam::identify::IdentifyConfig;
-use teachcam::io::tool::{read_tool, tool_json};
+use teachcam::io::tool::tool_json;
 use teachcam::io::trajectory::trajectory_text;
 use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::vendor;
 
 use crate::{DataRejected, Rejected as _};
 
-/// Turn another tracker's markers (Vicon, Qualisys, OptiTrack, NDI) into a tool trajectory.
+/// Turn 3-D markers (C3D, Motive CSV, Qualisys TSV, `track --markers-out`) into a tool trajectory.
 ///
 /// Picks the tool's markers by label or by the distance-matrix identification of a
 /// `tool.json`, registers the tool in every frame, and writes the trajectory CSV (`teachcam
@@ -23,17 +23,17 @@ use crate::{DataRejected, Rejected as _};
 /// `--static-frames`, tool frame from the first three markers: origin at the first, x towards
 /// the second, the third in the xy-plane); `--tool-out` saves it.
 ///
-/// Examples:
-///   `teachcam import c3d trial.c3d --tool probe.json --markers Probe1,Probe2,Probe3,Probe4 -o traj.csv`
-///   `teachcam import c3d trial.c3d --markers Probe1,Probe2,Probe3 --tool-out probe.json -o traj.csv`
-///   `teachcam import motive take.csv --tool brush.json -o traj.csv`
-///   `teachcam import markers markers.csv --fps 30 --markers M0,M1,M2,M3 --tool-out brush.json -o traj.csv`
-///
 /// Found by identification, the tool needs at least one frame with all its markers and no rival
 /// labelling; without one it is not in the data: nothing is written and the exit status is 3.
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam import c3d brush.c3d --tool rec/tool.json -o imported.csv
+  teachcam import c3d brush.c3d --markers brush:M0,brush:M1,brush:M2,brush:M3 --tool-out probe.json -o imported.csv
+  teachcam import markers markers.csv --fps 30 --tool rec/tool.json -o imported.csv
+  teachcam import motive take.csv --tool rec/tool.json -o imported.csv"#)]
 pub struct Args {
-    /// File format: c3d, motive (OptiTrack Motive CSV) or qualisys (QTM TSV).
+    /// File format: c3d, motive (OptiTrack Motive CSV), qualisys (QTM TSV) or markers
+    /// (`teachcam track --markers-out`).
     #[arg(value_enum)]
     pub format: Format,
     /// The marker file.
@@ -148,14 +148,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (tool, selection) = match (&args.tool, columns.is_empty()) {
         (None, true) => bail!("give --tool, --markers or both (see --help)"),
         (Some(path), true) => {
-            let tool = read_tool(path).rejected()?;
+            let tool = crate::load::tool(path)?;
             let identify = IdentifyConfig {
                 distance_tolerance_mm: args.identify_tolerance_mm,
             };
             (tool, MarkerSelection::Identify(identify))
         }
         (Some(path), false) => {
-            let tool = read_tool(path).rejected()?;
+            let tool = crate::load::tool(path)?;
             (tool, MarkerSelection::Labels(columns))
         }
         (None, false) => {

@@ -30,9 +30,10 @@ use crate::cmd::record::{parse_source, source_config, stop_requested};
 /// The simulator (`sim:paper`, the default) renders its frames ahead, before the clock starts,
 /// and plays them back and forth at `--fps`, so the numbers are the pipeline's, not the
 /// renderer's; its rig and tool are used unless `--rig`/`--tool` are given.
-///
-/// Example: `teachcam live --source sim:paper --fps 60 --seconds 10 --json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam live --source sim:paper --fps 60 --seconds 2 --json
+  teachcam live --source v4l2:/dev/video0,/dev/video2 --rig rig.json --tool rec/tool.json --seconds 10"#)]
 pub struct Args {
     /// Where frames come from: sim:SCENARIO, v4l2:DEVICE[,DEVICE...], folder:REC or a folder.
     #[arg(long, default_value = "sim:paper", value_parser = parse_source)]
@@ -111,7 +112,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.gain,
     );
     let (rig, tool) = match (&args.source, &args.rig, &args.tool) {
-        (_, Some(rig), Some(tool)) => (read_rig(rig).rejected()?, read_tool(tool).rejected()?),
+        (_, Some(rig), Some(tool)) => (crate::load::rig(rig)?, crate::load::tool(tool)?),
         (SourceSpec::Sim(scenario), rig, tool) => {
             let scene = teachcam::source::sim::scene(*scenario, &config.sim);
             (

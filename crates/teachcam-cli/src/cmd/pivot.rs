@@ -13,9 +13,9 @@ use crate::Rejected;
 /// Finds the tip's position in the tool frame (the `tip` of tool.json) from a
 /// tracked recording in which the tip rests on one point while the tool is turned about it.
 /// Refuses a recording with too little rotation about two independent axes.
-///
-/// Example: `teachcam pivot pivot.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam pivot pivot.csv"#)]
 pub struct Args {
     /// Trajectory CSV of the pivoting tool (from `track`); frames without a pose are skipped.
     pub trajectory: PathBuf,

@@ -47,9 +47,10 @@ pub fn stop_requested() -> bool {
 /// Sources: `sim:paper` (the simulator's scenario, at `--fps`, 60 by default),
 /// `v4l2:/dev/video0,/dev/video2` (live cameras, named cam0, cam1, ...), `folder:REC` or a
 /// folder path (a recording; videos are decoded to PNG frames).
-///
-/// Example: `teachcam record --source sim:paper --seconds 2 --out rec`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam record --source sim:paper --seconds 2 --out recorded
+  teachcam record --source v4l2:/dev/video0,/dev/video2 --seconds 10 --out cameras"#)]
 pub struct Args {
     /// Where frames come from: sim:SCENARIO, v4l2:DEVICE[,DEVICE...], folder:REC or a folder.
     #[arg(long, default_value = "sim:paper", value_parser = parse_source)]

@@ -16,9 +16,10 @@ use teachcam::detect::{MarkerSpread, RepeatabilityConfig, repeatability};
 /// Output columns: `camera,x_px,y_px,area_px,frames,std_x_px,std_y_px,std_px,predicted_std_px`
 /// (`std_px` per axis, `predicted_std_px` from the background noise and `--shot-noise`). `--plot` draws `std_px`
 /// against `area_px` as SVG.
-///
-/// Example: `teachcam repeatability rec -o repeatability.csv --plot repeatability.svg --method smallest-circle`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam repeatability static -o repeatability.csv --plot repeatability.svg
+  teachcam repeatability static -o circle.csv --method smallest-circle"#)]
 pub struct Args {
     /// Recording folder of static markers: one sub-folder of PNG frames per camera.
     pub recording: PathBuf,

@@ -34,9 +34,9 @@ const IRB120_REACH_MM: f64 = 580.0;
 /// (paper Figs. 3 and 8), the amplitude spectrum (Fig. 7), the smoothing comparison (Figs. 4-6),
 /// the tip path in three views with the robot's reach, the tip error over time, the uncertainty
 /// map, and each camera's first frame with the detected blobs.
-///
-/// Example: `teachcam report teachcam-demo` (writes teachcam-demo/report.html)
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam report teachcam-demo"#)]
 pub struct Args {
     /// The run's folder (as written by `teachcam demo`).
     pub run_dir: PathBuf,

@@ -44,9 +44,12 @@ use crate::progress::Progress;
 /// glint), `ground/` (an L-frame lying still on the work object, 30 frames), `cameras.json`
 /// (the true intrinsics, no extrinsics), `wand.json`, `lframe.json` and the true rig
 /// `rig_true.json` (world = the L-frame's frame), for `teachcam calibrate wand`.
-///
-/// Example: `teachcam simulate --scenario paper --out rec`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam simulate --scenario paper --out rec
+  teachcam simulate --scenario static --frames 20 --out static
+  teachcam simulate --scenario calibration --views 6 --out boards
+  teachcam simulate --scenario wand --out dance"#)]
 pub struct Args {
     /// Scenario name: paper, static, occluded, four-cameras, calibration,
     /// four-cameras-calibration, stereo-ir, stereo-ir-miscal, unsynced, four-cameras-hard or

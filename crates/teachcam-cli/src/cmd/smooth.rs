@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use teachcam::io::tool::read_tool;
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::io::{Output, check_outputs};
 use teachcam::smooth::spline::SplineEnds;
@@ -24,9 +23,10 @@ use crate::Rejected;
 /// those of `filtfilt(*butter(N, HZ, fs=fs), x)` wherever that form is stable; HZ is the
 /// cut-off of one pass, as in scipy (the zero-phase result is at -6 dB there). A cut-off whose
 /// step response outlasts the record, or that double precision cannot hold, is refused.
-///
-/// Example: `teachcam smooth raw.csv --method lowpass --cutoff 10 -o smooth.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam smooth raw.csv --method lowpass --cutoff 10 -o smooth.csv
+  teachcam smooth raw.csv --method spline -o spline.csv"#)]
 pub struct Args {
     /// Trajectory CSV to smooth (as written by `teachcam track`).
     pub input: PathBuf,
@@ -133,7 +133,7 @@ pub fn run(args: &Args) -> Result<()> {
         ..SmoothConfig::default()
     };
     if let Some(path) = &args.tool {
-        config.tip_in_tool = Some(read_tool(path).rejected()?.tip_in_tool());
+        config.tip_in_tool = Some(crate::load::tool(path)?.tip_in_tool());
     }
     config.method = match args.method {
         MethodName::Lowpass => {

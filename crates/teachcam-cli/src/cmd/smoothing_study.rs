@@ -15,9 +15,9 @@ use crate::plot::{Panel, Series, YScale, write_png};
 /// against the clean signal, the fraction of each sinusoid's amplitude kept and of the noise
 /// kept; writes `study.csv` (every signal) and `study.png` (one panel per method, as the
 /// paper's figures) into the output folder.
-///
-/// Example: `teachcam smoothing-study --out study --seed 1`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam smoothing-study --out study --seed 1"#)]
 pub struct Args {
     /// Output folder (created if missing).
     #[arg(long, default_value = "smoothing-study")]

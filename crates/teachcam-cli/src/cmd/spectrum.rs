@@ -19,9 +19,10 @@ use crate::plot::{Panel, Series, YScale, write_png};
 ///
 /// The output is CSV (`frequency_hz,x_mm,y_mm,z_mm,rx_rad,ry_rad,rz_rad`) or, when the name
 /// ends in `.png`, a plot.
-///
-/// Example: `teachcam spectrum raw.csv -o spectrum.png`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam spectrum raw.csv -o spectrum.png
+  teachcam spectrum raw.csv -o spectrum.csv"#)]
 pub struct Args {
     /// Trajectory CSV.
     pub input: PathBuf,

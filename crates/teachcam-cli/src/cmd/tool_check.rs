@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use teachcam::identify::IdentifyConfig;
-use teachcam::io::tool::read_tool;
 use teachcam::metrology::tool_design;
 
 use crate::Rejected;
@@ -14,9 +13,9 @@ use crate::Rejected;
 /// each other, against the identification tolerance), the expected tip error per unit marker
 /// error (Fitzpatrick–West–Maurer), and warnings. Prints JSON; exits 1 when the tool would be
 /// refused by `track`.
-///
-/// Example: `teachcam tool-check tool.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam tool-check rec/tool.json"#)]
 pub struct Args {
     /// Tool model (tool.json).
     pub tool: PathBuf,
@@ -27,7 +26,7 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let tool = read_tool(&args.tool).rejected()?;
+    let tool = crate::load::tool(&args.tool)?;
     let design = tool_design(&tool, args.tolerance_mm);
     println!("{}", serde_json::to_string_pretty(&design)?);
     let config = IdentifyConfig {

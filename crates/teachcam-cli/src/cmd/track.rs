@@ -7,12 +7,15 @@ use anyhow::Context;
 use teachcam::correspond::Views;
 use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
 use teachcam::identify::{IdentifyConfig, check_identifiable};
+use teachcam::io::detections::read_detections;
+use teachcam::io::recording::DEFAULT_FPS;
 use teachcam::io::trajectory::trajectory_text;
-use teachcam::io::{Output, OutputSet, check_outputs, rig::read_rig, tool::read_tool};
-use teachcam::pipeline::CameraSetup;
+use teachcam::io::{Output, OutputSet, check_outputs};
+use teachcam::pipeline::{CameraDetections, CameraSetup, DetectedSet};
+use teachcam::source::folder::{RecordingClock, recording_clock};
 use teachcam::sync::ResampleIssue;
 use teachcam::track::gates::{
-    GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
+    Gate, GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
 use teachcam::track::uncertainty::tip_std_mm;
 use teachcam::track::{FrameTrack, Tracker, trajectory_from_tracks};
@@ -57,9 +60,11 @@ mod time_offsets;
 ///
 /// Exit status: 0 when the tool was tracked, 1 for rejected data, 2 for usage, 3 when the tool
 /// was not found in any frame (nothing is written then).
-///
-/// Example: `teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --diagnostics diag.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --markers-out markers.csv
+  teachcam track rec --rig rec/rig.json --tool rec/tool.json -o raw.csv --diagnostics diag.csv
+  teachcam track rec --detections detections.csv --rig rec/rig.json --tool rec/tool.json -o raw-from-detections.csv"#)]
 pub struct Args {
     /// Recording folder: one sub-folder of PNG frames or one video file (`cam0.avi`, any
     /// format FFmpeg reads) per rig camera; `timestamps.csv` beside them gives frame times.
@@ -98,6 +103,13 @@ pub struct Args {
     /// Also write the offsets applied: `{"cam0": 0.0, "cam1": 0.0093, ...}`, seconds.
     #[arg(long, requires = "time_offsets")]
     pub time_offsets_out: Option<PathBuf>,
+    /// Track these blobs (`teachcam detect`'s CSV) instead of detecting the images, so that
+    /// detection is tuned once. The recording folder, where present, still gives the rate
+    /// (`recording.json`, `--fps`), the frame times (`timestamps.csv`) and the frame count;
+    /// every camera of the file must be a rig camera and every frame within the recording.
+    /// The blobs are tracked as detected (`--min-roundness` leaves out the less round ones).
+    #[arg(long, conflicts_with_all = ["method", "threshold", "near", "far"])]
+    pub detections: Option<PathBuf>,
 }
 
 /// The gates a user can fix; each one left out is measured from the recording.
@@ -240,10 +252,12 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         format: "time offsets JSON",
         extensions: &["json"],
     }));
-    check_outputs(&outputs, &[&args.rig, &args.tool])?;
+    let mut inputs = vec![args.rig.as_path(), args.tool.as_path()];
+    inputs.extend(args.detections.as_deref());
+    check_outputs(&outputs, &inputs)?;
     let overrides = args.gates.overrides();
-    let rig = read_rig(&args.rig).rejected()?;
-    let tool = read_tool(&args.tool).rejected()?;
+    let rig = crate::load::rig(&args.rig)?;
+    let tool = crate::load::tool(&args.tool)?;
     if let Some(tolerance) = overrides.distance_tolerance_mm {
         check_identifiable(
             &tool,
@@ -254,14 +268,19 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         .with_context(|| format!("{}", args.tool.display()))
         .rejected()?;
     }
-    let detected = detect_for_tracking(
-        &args.recording,
-        &rig,
-        &tool,
-        &args.detect,
-        overrides.min_roundness,
-    )?;
-    let (recording, min_roundness) = (detected.recording, detected.min_roundness);
+    let (recording, min_roundness) = match &args.detections {
+        Some(path) => recording_from_detections(args, path, &rig, overrides.min_roundness)?,
+        None => {
+            let detected = detect_for_tracking(
+                &args.recording,
+                &rig,
+                &tool,
+                &args.detect,
+                overrides.min_roundness,
+            )?;
+            (detected.recording, detected.min_roundness)
+        }
+    };
     let frame_count = recording.sets.len();
     let (mut views, noise) = views_of(&rig, &recording);
     let synchronised = match &args.time_offsets {
@@ -335,6 +354,98 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     }
     let written = outputs.commit()?;
     Ok((trajectory, written))
+}
+
+/// The recording as `detect` saw it, from its detections file (`--detections`): one set per
+/// frame of the recording, each rig camera's blobs of that frame (those below a given
+/// `--min-roundness` left out), times and rate from the recording folder where it exists.
+fn recording_from_detections(
+    args: &Args,
+    path: &Path,
+    rig: &teachcam::camera::Rig,
+    min_roundness: Option<f64>,
+) -> anyhow::Result<(DetectedRecording, Gate)> {
+    let detections = read_detections(path).rejected()?;
+    let names: Vec<&str> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
+    if let Some(stranger) = detections.cameras.keys().find(|c| rig.id_of(c).is_none()) {
+        return Err(anyhow::anyhow!(
+            "{}: camera {stranger} is not in the rig {} (its cameras: {})",
+            path.display(),
+            args.rig.display(),
+            names.join(", ")
+        ))
+        .rejected();
+    }
+    let clock = if args.recording.exists() {
+        recording_clock(&args.recording, args.detect.fps).rejected()?
+    } else {
+        RecordingClock {
+            fps: args.detect.fps.unwrap_or(DEFAULT_FPS),
+            frames: None,
+            timestamps: None,
+        }
+    };
+    let frames = clock.frames.unwrap_or_else(|| detections.frame_count());
+    let beyond = detections
+        .cameras
+        .iter()
+        .filter_map(|(camera, by_frame)| Some((camera, *by_frame.keys().next_back()?)))
+        .find(|(_, last)| *last >= frames);
+    if let Some((camera, frame)) = beyond {
+        return Err(anyhow::anyhow!(
+            "{}: camera {camera} frame {frame} is beyond the recording {} ({frames} frames: 0 to {})",
+            path.display(),
+            args.recording.display(),
+            frames.saturating_sub(1)
+        ))
+        .rejected();
+    }
+    let gate = match min_roundness {
+        Some(_) => roundness_gate(&[], min_roundness),
+        None => Gate {
+            value: detections
+                .cameras
+                .values()
+                .flat_map(|f| f.values().flatten())
+                .map(|b| b.roundness)
+                .fold(f64::INFINITY, f64::min)
+                .min(1.0),
+            reason: format!("as detected ({}: its least round blob)", path.display()),
+        },
+    };
+    let sets = (0..frames)
+        .map(|frame| {
+            let time_s = clock.time_s(frame, &names);
+            let cameras = names
+                .iter()
+                .map(|camera| {
+                    Some(CameraDetections {
+                        camera: (*camera).to_string(),
+                        frame,
+                        time_s,
+                        blobs: detections
+                            .blobs(camera, frame)
+                            .iter()
+                            .filter(|b| b.roundness >= gate.value)
+                            .cloned()
+                            .collect(),
+                    })
+                })
+                .collect();
+            DetectedSet {
+                index: frame,
+                time_s,
+                exposed_at: None,
+                cameras,
+            }
+        })
+        .collect();
+    let recording = DetectedRecording {
+        cameras: names.iter().map(|c| (*c).to_string()).collect(),
+        fps: clock.fps,
+        sets,
+    };
+    Ok((recording, gate))
 }
 
 /// The detector's options `track` and `calibrate refine` share.

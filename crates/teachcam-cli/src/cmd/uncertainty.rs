@@ -4,7 +4,6 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use teachcam::geometry::parse_pose;
-use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::metrology::{first_order, monte_carlo};
 use teachcam::track::TrackConfig;
 
@@ -17,9 +16,10 @@ use crate::Rejected;
 /// triangulation, identification, registration). Prints JSON: `tip_std_mm` (x, y, z), `tip_rms_mm`,
 /// `position_std_mm`, `rotation_std_deg` (about world x, y, z), `failed_trials`, `tip_bias_mm`,
 /// and the closed-form first-order propagation of the same noise under `first_order`.
-///
-/// Example: `teachcam uncertainty --rig rig.json --tool tool.json --pose "0,0,190,1,0,0,0" --pixel-noise 0.15 --trials 10000`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam uncertainty --rig rec/rig.json --tool rec/tool.json --pose "0,0,190,1,0,0,0" --pixel-noise 0.15 --trials 10000
+  teachcam uncertainty --rig rec/rig.json --tool rec/tool.json --pose "0,0,190,1,0,0,0" --pixel-noise 0.15 --camera-dropped cam1"#)]
 pub struct Args {
     /// Camera rig (rig.json).
     #[arg(long)]
@@ -47,8 +47,8 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let mut rig = read_rig(&args.rig).rejected()?;
-    let tool = read_tool(&args.tool).rejected()?;
+    let mut rig = crate::load::rig(&args.rig)?;
+    let tool = crate::load::tool(&args.tool)?;
     let pose = parse_pose(&args.pose).context("--pose")?;
     if let Some(name) = &args.camera_dropped {
         let before = rig.cameras.len();

@@ -5,10 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use teachcam::geometry::{Point3, parse_pose};
-use teachcam::io::{rig::read_rig, tool::read_tool, write_atomically};
+use teachcam::io::write_atomically;
 use teachcam::metrology::uncertainty_map;
-
-use crate::Rejected;
 
 /// Tip uncertainty over a grid of the working volume: where to work, where not.
 ///
@@ -16,9 +14,9 @@ use crate::Rejected;
 /// and with the worst single camera left out: where to work, where not. Writes CSV
 /// `x_mm,y_mm,z_mm,tip_rms_mm,tip_rms_one_camera_dropped_mm` (empty where the tool cannot be
 /// tracked).
-///
-/// Example: `teachcam uncertainty-map --rig rig.json --tool tool.json --pose "0,0,180,1,0,0,0" --half-width 300 --step 25 -o map.csv`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam uncertainty-map --rig rec/rig.json --tool rec/tool.json --pose "0,0,180,1,0,0,0" --half-width 300 --step 25 -o map.csv"#)]
 pub struct Args {
     /// Camera rig (rig.json).
     #[arg(long)]
@@ -49,8 +47,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         &[teachcam::io::Output::csv(&args.output)],
         &[&args.rig, &args.tool],
     )?;
-    let rig = read_rig(&args.rig).rejected()?;
-    let tool = read_tool(&args.tool).rejected()?;
+    let rig = crate::load::rig(&args.rig)?;
+    let tool = crate::load::tool(&args.tool)?;
     let centre = parse_pose(&args.pose).context("--pose")?;
     if !(args.step > 0.0 && args.half_width >= 0.0 && args.half_width / args.step <= 500.0) {
         anyhow::bail!(

@@ -43,6 +43,79 @@ pub struct FolderSource {
     keep: Option<std::collections::BTreeSet<usize>>,
 }
 
+/// The rate: `given` (`--fps`, else recording.json), else the videos' common rate, else
+/// [`DEFAULT_FPS`].
+fn rate(given: Option<f64>, video_rates: &[f64]) -> f64 {
+    let common_video_rate = video_rates.first().copied().filter(|first| {
+        video_rates
+            .iter()
+            .all(|r| (r - first).abs() <= 1e-6 * first)
+    });
+    given.or(common_video_rate).unwrap_or(DEFAULT_FPS)
+}
+
+/// A recording folder's clock, read without decoding a frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordingClock {
+    /// Frames per second, as [`FolderSource`] takes it.
+    pub fps: f64,
+    /// Frames of the shortest camera, when every camera's length is known.
+    pub frames: Option<usize>,
+    /// Each camera's frame times from `timestamps.csv`, seconds, when the file is present.
+    pub timestamps: Option<BTreeMap<String, Vec<f64>>>,
+}
+
+impl RecordingClock {
+    /// Frame `frame`'s time: the mean of `cameras`' times in `timestamps.csv`, as a set of
+    /// [`FolderSource`] has (cameras without times left out), else `frame / fps`.
+    #[must_use]
+    pub fn time_s(&self, frame: usize, cameras: &[&str]) -> f64 {
+        let times: Vec<f64> = self
+            .timestamps
+            .iter()
+            .flat_map(|t| cameras.iter().filter_map(|c| t.get(*c)?.get(frame)))
+            .copied()
+            .collect();
+        if times.is_empty() {
+            frame as f64 / self.fps
+        } else {
+            times.iter().sum::<f64>() / times.len() as f64
+        }
+    }
+}
+
+/// The clock of a recording folder: its rate, length and frame times (CONTRACT.md,
+/// "Recording"), videos probed but not decoded.
+///
+/// # Errors
+/// [`SourceError`] naming the folder, the camera or the video.
+pub fn recording_clock(
+    root: &Path,
+    fps_override: Option<f64>,
+) -> Result<RecordingClock, SourceError> {
+    let listing = list_recording(root, fps_override)?;
+    let mut lengths = Vec::new();
+    let mut video_rates = Vec::new();
+    for entry in &listing.cameras {
+        match &entry.media {
+            CameraMedia::Images(files) => lengths.push(Some(files.len())),
+            CameraMedia::Video(path) => {
+                let info = probe(path, &entry.name)?;
+                lengths.push(info.frames);
+                video_rates.extend(info.fps);
+            }
+        }
+    }
+    Ok(RecordingClock {
+        fps: rate(listing.fps, &video_rates),
+        frames: lengths
+            .into_iter()
+            .collect::<Option<Vec<usize>>>()
+            .and_then(|l| l.into_iter().min()),
+        timestamps: listing.timestamps,
+    })
+}
+
 impl FolderSource {
     /// Lists a recording folder and starts a decoder for each video camera.
     ///
@@ -79,12 +152,7 @@ impl FolderSource {
                 }
             }
         }
-        let common_video_rate = video_rates.first().copied().filter(|first| {
-            video_rates
-                .iter()
-                .all(|r| (r - first).abs() <= 1e-6 * first)
-        });
-        let fps = listing.fps.or(common_video_rate).unwrap_or(DEFAULT_FPS);
+        let fps = rate(listing.fps, &video_rates);
         let pairer = listing.timestamps.as_ref().map(|_| {
             Pairer::new(
                 cameras.len(),

@@ -8,8 +8,7 @@ use rayon::prelude::*;
 use teachcam::calib::refine::{RefineConfig, Refinement, confident_views, refine_rig};
 use teachcam::camera::Rig;
 use teachcam::correspond::Views;
-use teachcam::io::rig::{CameraStdFile, read_rig, write_rig_with_std};
-use teachcam::io::tool::read_tool;
+use teachcam::io::rig::{CameraStdFile, write_rig_with_std};
 use teachcam::io::{Output, check_outputs};
 use teachcam::track::gates::{GateOverrides, measure_gates, sample_frames};
 use teachcam::track::{FrameTrack, Tracker};
@@ -33,9 +32,9 @@ use crate::cmd::track::{
 /// from the footage, and the first is held. Prints per camera what moved (centre mm, rotation
 /// degrees) with its σ, and each camera pair's median epipolar distance before and after.
 /// Writes the rig with each camera's σ (`centre_std_mm`, `rotation_std_deg`).
-///
-/// Example: `teachcam calibrate refine rec/ --rig rig.json --tool tool.json -o refined.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam calibrate refine rec --rig rec/rig.json --tool rec/tool.json -o refined.json"#)]
 pub struct RefineArgs {
     /// The recording folder (as for `track`).
     pub recording: PathBuf,
@@ -78,8 +77,8 @@ pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
         }],
         &[&args.rig, &args.tool],
     )?;
-    let rig = read_rig(&args.rig).rejected()?;
-    let tool = read_tool(&args.tool).rejected()?;
+    let rig = crate::load::rig(&args.rig)?;
+    let tool = crate::load::tool(&args.tool)?;
     if rig.len() < 2 {
         return Err(anyhow!(
             "{}: {} camera; refinement needs at least 2",

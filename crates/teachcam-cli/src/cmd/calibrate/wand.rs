@@ -28,9 +28,9 @@ use crate::cmd::detect::{Frames, detect_folder};
 /// with at least 3 non-collinear markers lying still on the work object in GROUND_REC).
 /// Prints frames used, each camera's reprojection RMS and σ, and the wand length error of
 /// independent triangulations (RMS and max, what optical trackers grade a calibration by).
-///
-/// Example: `teachcam calibrate wand wand/ --cameras cameras.json --wand wand.json --ground ground/ --ground-tool lframe.json -o rig.json`
 #[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam calibrate wand dance/wand --cameras dance/cameras.json --wand dance/wand.json --ground dance/ground --ground-tool dance/lframe.json -o rig.json"#)]
 pub struct WandArgs {
     /// The wand dance: a recording folder (one sub-folder of frames per camera).
     pub recording: PathBuf,
