@@ -122,6 +122,12 @@ fn paper_and_occluded_recordings_are_tracked_within_a_tenth_of_a_millimetre() {
             rms(&predicted)
         );
         assert!(rms_mm <= limit_mm, "{scenario}: tip RMS {rms_mm} mm");
+        // The painter's real motion never trips the temporal guard.
+        let diagnostics = std::fs::read_to_string(dir.path().join("diag.csv")).unwrap();
+        assert!(
+            !diagnostics.contains("neighbours' path"),
+            "{scenario}: real motion flagged as a jump:\n{diagnostics}"
+        );
         assert!(worst < 1.0, "{scenario}: a wrong pose ({worst} mm)");
         assert!(
             (0.75..1.33).contains(&told),

@@ -22,7 +22,9 @@
 //! independent, so they run in parallel.
 
 pub mod gates;
+pub mod merged;
 pub mod reflections;
+pub mod temporal;
 pub mod uncertainty;
 
 use std::collections::BTreeMap;
@@ -58,6 +60,11 @@ pub struct TrackConfig {
     /// identification. Default none: a mirror is learned from the recording
     /// ([`reflections::learn_mirror`]), never assumed.
     pub mirror: Option<reflections::MirrorPlane>,
+    /// When a marker's blob counts as merged with something touching it ([`merged`]): its
+    /// view is then left out where others remain. Default none: measured from the
+    /// recording, and only checked where the blobs' shapes are given
+    /// ([`Tracker::track_frame_with_shapes`]).
+    pub merged: Option<merged::MergedGate>,
 }
 
 /// How many times the registration gate a pose may leave and still be written (as an
@@ -76,6 +83,7 @@ impl Default for TrackConfig {
             identify: IdentifyConfig::default(),
             max_registration_rms_mm: 0.5,
             mirror: None,
+            merged: None,
         }
     }
 }
@@ -160,6 +168,48 @@ pub enum Flag {
         /// How many times the gates.
         factor: f64,
     },
+    /// A marker's blob was merged with something touching it and left out of the marker's
+    /// point; the other views made it.
+    #[error("merged blob in {camera} (size {size_ratio:.2}, roundness {roundness:.2}) left out")]
+    MergedViewDropped {
+        /// The camera.
+        camera: CameraId,
+        /// The blob's size ratio ([`merged::size_ratio`]).
+        size_ratio: f64,
+        /// The blob's roundness.
+        roundness: f64,
+    },
+    /// A marker's blob was merged with something touching it and used: its point had no
+    /// other view to spare.
+    #[error(
+        "merged blob in {camera} (size {size_ratio:.2}, roundness {roundness:.2}) used: no other view"
+    )]
+    MergedBlobUsed {
+        /// The camera.
+        camera: CameraId,
+        /// The blob's size ratio ([`merged::size_ratio`]).
+        size_ratio: f64,
+        /// The blob's roundness.
+        roundness: f64,
+    },
+    /// The pose is farther from its neighbours than the recording's motion allows
+    /// ([`temporal`]).
+    #[error(
+        "tip {deviation_mm:.1} mm off its neighbours' path; the tool moves at most {gate_mm:.2} mm per frame"
+    )]
+    TemporalJump {
+        /// Distance of the tip from the path between the tips around it.
+        deviation_mm: f64,
+        /// The step gate, millimetres per frame.
+        gate_mm: f64,
+    },
+    /// The tool's distances left too few markers; they were labelled by their nearness to
+    /// the markers of a neighbouring frame's pose ([`fill_from_neighbours`]).
+    #[error("markers labelled by frame {frame}'s pose (too few fitted the tool's distances)")]
+    LabelledFromNeighbour {
+        /// The neighbouring frame.
+        frame: usize,
+    },
     /// The registration residual is beyond the gate.
     #[error("registration residual {rms_mm:.3} mm beyond the {gate_mm:.3} mm gate")]
     RegistrationResidual {
@@ -177,10 +227,14 @@ impl Flag {
         match self {
             Self::RegistrationResidual { .. }
             | Self::PointResidual { .. }
-            | Self::WidenedGates { .. } => Status::Outlier,
-            Self::ViewDropped { .. } | Self::FewerMarkers { .. } | Self::TooManyPairings { .. } => {
-                Status::Degraded
-            }
+            | Self::WidenedGates { .. }
+            | Self::TemporalJump { .. }
+            | Self::LabelledFromNeighbour { .. } => Status::Outlier,
+            Self::ViewDropped { .. }
+            | Self::FewerMarkers { .. }
+            | Self::TooManyPairings { .. }
+            | Self::MergedViewDropped { .. }
+            | Self::MergedBlobUsed { .. } => Status::Degraded,
         }
     }
 }
@@ -203,6 +257,9 @@ pub struct FrameTrack {
     pub rival_in_world: Option<BTreeMap<MarkerId, Point3>>,
     /// Points left out as reflections behind the mirror ([`TrackConfig::mirror`]).
     pub reflections: usize,
+    /// Cameras whose blob of some point of the frame was merged ([`merged`]), with or
+    /// without a pose: the evidence for a gap too.
+    pub merged: Vec<CameraId>,
 }
 
 impl FrameTrack {
@@ -223,7 +280,11 @@ impl FrameTrack {
     #[must_use]
     pub fn reason(&self) -> String {
         match &self.outcome {
-            Err(lost) => lost.to_string(),
+            Err(lost) if self.merged.is_empty() => lost.to_string(),
+            Err(lost) => {
+                let cameras: Vec<String> = self.merged.iter().map(ToString::to_string).collect();
+                format!("{lost} (merged blob in {})", cameras.join(", "))
+            }
             Ok(_) => self
                 .flags
                 .iter()
@@ -265,7 +326,15 @@ enum Points {
 #[derive(Debug, Clone)]
 struct FramePoint {
     point: TriangulatedPoint,
-    flag: Option<Flag>,
+    flags: Vec<Flag>,
+    /// The camera whose merged blob this point left out or used.
+    merged: Option<CameraId>,
+}
+
+/// One frame's blobs: centres and, where given, shapes.
+struct Frame<'a> {
+    views: &'a Views,
+    shapes: &'a merged::Shapes,
 }
 
 /// One combination's answer.
@@ -328,15 +397,25 @@ impl<'a> Tracker<'a> {
     /// Tracks one frame from its blob centres (distorted pixels) per camera.
     #[must_use]
     pub fn track_frame(&self, views: &Views) -> FrameTrack {
+        self.track_frame_with_shapes(views, &merged::Shapes::new())
+    }
+
+    /// Tracks one frame from its blob centres per camera and their shapes (`shapes`, in the
+    /// order of `views`; a camera left out is not checked): a marker's blob merged with
+    /// something touching it ([`TrackConfig::merged`]) is left out of its point where other
+    /// views remain.
+    #[must_use]
+    pub fn track_frame_with_shapes(&self, views: &Views, shapes: &merged::Shapes) -> FrameTrack {
         let Correspondences { unique, ambiguous } =
             correspond_all(self.rig, &self.geometry, views, &self.config.correspond);
-        let strict = self.track_points(views, &unique, &ambiguous, Points::WithinGate);
+        let frame = Frame { views, shapes };
+        let strict = self.track_points(&frame, &unique, &ambiguous, Points::WithinGate);
         if !matches!(strict.outcome, Err(Lost::TooFewMarkers { .. })) {
             return strict;
         }
         // Too few markers within the gate: the points a little beyond it (a marker partly
         // hidden, a blob shifted by a neighbour) may still give a pose, flagged an outlier.
-        let mut relaxed = self.track_points(views, &unique, &ambiguous, Points::BeyondGate);
+        let mut relaxed = self.track_points(&frame, &unique, &ambiguous, Points::BeyondGate);
         match &relaxed.outcome {
             Ok(_) => {
                 relaxed.flags.push(Flag::WidenedGates {
@@ -350,12 +429,12 @@ impl<'a> Tracker<'a> {
 
     fn track_points(
         &self,
-        views: &Views,
+        frame: &Frame<'_>,
         unique: &[Correspondence],
         ambiguous: &[crate::correspond::Ambiguity],
         which: Points,
     ) -> FrameTrack {
-        let unique_points = self.triangulate_all(views, unique, which);
+        let unique_points = self.triangulate_all(frame, unique, which);
         let combinations = ambiguous
             .iter()
             .try_fold(1_usize, |n, a| n.checked_mul(a.alternatives.len()))
@@ -375,7 +454,7 @@ impl<'a> Tracker<'a> {
                 for group in ambiguous {
                     let n = group.alternatives.len();
                     points.extend(self.triangulate_all(
-                        views,
+                        frame,
                         &group.alternatives[rest % n],
                         which,
                     ));
@@ -389,7 +468,7 @@ impl<'a> Tracker<'a> {
 
     fn triangulate_all(
         &self,
-        views: &Views,
+        frame: &Frame<'_>,
         correspondences: &[Correspondence],
         which: Points,
     ) -> Vec<FramePoint> {
@@ -401,11 +480,19 @@ impl<'a> Tracker<'a> {
         correspondences
             .iter()
             .filter_map(|c| {
-                let pixels: BTreeMap<CameraId, _> = c
+                let mut pixels: BTreeMap<CameraId, _> = c
                     .blobs
                     .iter()
-                    .filter_map(|(cam, i)| Some((*cam, *views.get(cam)?.get(*i)?)))
+                    .filter_map(|(cam, i)| Some((*cam, *frame.views.get(cam)?.get(*i)?)))
                     .collect();
+                let mut flags = Vec::new();
+                let merged = self.merged_view(frame, c, &pixels);
+                if let Some((camera, flag)) = &merged {
+                    if pixels.len() > 2 {
+                        pixels.remove(camera);
+                    }
+                    flags.push(flag.clone());
+                }
                 let strict =
                     triangulate_leaving_one_out(self.rig, &pixels, &self.config.triangulate);
                 let (robust, beyond) = match (strict, which) {
@@ -416,26 +503,74 @@ impl<'a> Tracker<'a> {
                         true,
                     ),
                 };
-                let flag = if beyond {
-                    Some(Flag::PointResidual {
+                if beyond {
+                    flags.push(Flag::PointResidual {
                         residual_px: robust.point.residual_px,
                         gate_px,
-                    })
-                } else {
-                    robust
-                        .dropped
-                        .zip(robust.residual_with_all_px)
-                        .map(|(camera, residual_px)| Flag::ViewDropped {
-                            camera,
-                            residual_px,
-                        })
-                };
+                    });
+                } else if let Some((camera, residual_px)) =
+                    robust.dropped.zip(robust.residual_with_all_px)
+                {
+                    flags.push(Flag::ViewDropped {
+                        camera,
+                        residual_px,
+                    });
+                }
                 Some(FramePoint {
                     point: robust.point,
-                    flag,
+                    flags,
+                    merged: merged.map(|(camera, _)| camera),
                 })
             })
             .collect()
+    }
+
+    /// The view of a correspondence whose blob is merged ([`merged`]), the most oversized one,
+    /// with its flag: [`Flag::MergedViewDropped`] where two or more other views remain, else
+    /// [`Flag::MergedBlobUsed`]. The marker's depth comes from all its views (no gate).
+    fn merged_view(
+        &self,
+        frame: &Frame<'_>,
+        correspondence: &Correspondence,
+        pixels: &BTreeMap<CameraId, crate::geometry::Pixel>,
+    ) -> Option<(CameraId, Flag)> {
+        let gate = self.config.merged?;
+        if frame.shapes.is_empty() || pixels.len() < 2 {
+            return None;
+        }
+        let loose = TriangulateConfig {
+            max_residual_px: f64::INFINITY,
+            ..self.config.triangulate
+        };
+        let point = crate::triangulate::triangulate(self.rig, pixels, &loose).ok()?;
+        let diameter_mm = self.tool.marker_diameter_mm;
+        correspondence
+            .blobs
+            .iter()
+            .filter_map(|(camera, i)| {
+                let shape = frame.shapes.get(camera)?.get(*i)?;
+                let ratio =
+                    merged::size_ratio(self.rig, *camera, shape, &point.position, diameter_mm)?;
+                gate.is_merged(ratio, shape.roundness)
+                    .then_some((*camera, ratio, shape.roundness))
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(camera, size_ratio, roundness)| {
+                let flag = if pixels.len() > 2 {
+                    Flag::MergedViewDropped {
+                        camera,
+                        size_ratio,
+                        roundness,
+                    }
+                } else {
+                    Flag::MergedBlobUsed {
+                        camera,
+                        size_ratio,
+                        roundness,
+                    }
+                };
+                (camera, flag)
+            })
     }
 
     fn candidate(&self, points: Vec<FramePoint>, which: Points) -> Candidate {
@@ -517,6 +652,7 @@ impl<'a> Tracker<'a> {
                 combinations,
                 rival_in_world: None,
                 reflections: 0,
+                merged: Vec::new(),
             };
         };
         let mut outcome = best.outcome.clone();
@@ -549,7 +685,7 @@ impl<'a> Tracker<'a> {
             flags.extend(
                 best.labels
                     .values()
-                    .filter_map(|p| best.points[*p].flag.clone()),
+                    .flat_map(|p| best.points[*p].flags.iter().cloned()),
             );
             if pose.markers < self.tool.markers_in_tool.len() {
                 flags.push(Flag::FewerMarkers {
@@ -564,6 +700,17 @@ impl<'a> Tracker<'a> {
                 });
             }
         }
+        // With a pose, the merged blobs it used or left out; without, every one the frame had.
+        let mut merged: Vec<CameraId> = match &outcome {
+            Ok(_) => best
+                .labels
+                .values()
+                .filter_map(|p| best.points[*p].merged)
+                .collect(),
+            Err(_) => best.points.iter().filter_map(|p| p.merged).collect(),
+        };
+        merged.sort_unstable();
+        merged.dedup();
         FrameTrack {
             outcome,
             points: best.points.into_iter().map(|p| p.point).collect(),
@@ -572,6 +719,7 @@ impl<'a> Tracker<'a> {
             combinations,
             rival_in_world,
             reflections: best.reflections,
+            merged,
         }
     }
 
@@ -594,6 +742,89 @@ impl<'a> Tracker<'a> {
         )
     }
 
+    /// Labels a frame's points by their nearness to the markers of a neighbour's pose
+    /// (`neighbour`, `frame` its index): each marker takes the one point within
+    /// [`NEIGHBOUR_RADIUS`] of the tool's closest marker distance of its predicted place,
+    /// points up to [`OUTLIER_LIMIT`] times the triangulation gate included; `None` unless
+    /// three or more markers are labelled and registration leaves at most [`OUTLIER_LIMIT`]
+    /// times the tool's distance ceiling.
+    fn track_from_neighbour(
+        &self,
+        views: &Views,
+        shapes: &merged::Shapes,
+        neighbour: &ToolPose,
+        frame: usize,
+    ) -> Option<FrameTrack> {
+        let Correspondences { unique, .. } =
+            correspond_all(self.rig, &self.geometry, views, &self.config.correspond);
+        let points: Vec<FramePoint> = self
+            .triangulate_all(&Frame { views, shapes }, &unique, Points::BeyondGate)
+            .into_iter()
+            .filter(|p| {
+                self.config
+                    .mirror
+                    .as_ref()
+                    .is_none_or(|m| !m.is_behind(&p.point.position))
+            })
+            .collect();
+        let model = &self.tool.markers_in_tool;
+        let closest_mm = (0..model.len())
+            .flat_map(|i| (i + 1..model.len()).map(move |j| (i, j)))
+            .map(|(i, j)| (model[i] - model[j]).norm())
+            .fold(f64::INFINITY, f64::min);
+        let radius_mm = NEIGHBOUR_RADIUS * closest_mm;
+        let mut labels = BTreeMap::new();
+        for (m, marker) in model.iter().enumerate() {
+            let predicted = neighbour.world_from_tool * marker;
+            let near: Vec<usize> = (0..points.len())
+                .filter(|&p| (points[p].point.position - predicted).norm() <= radius_mm)
+                .collect();
+            if let [only] = near[..] {
+                labels.insert(MarkerId(m), only);
+            }
+        }
+        let used: std::collections::BTreeSet<usize> = labels.values().copied().collect();
+        if labels.len() < 3 || used.len() < labels.len() {
+            return None;
+        }
+        let markers_in_world = labels
+            .iter()
+            .map(|(m, p)| (*m, points[*p].point.position))
+            .collect();
+        let limit_mm = OUTLIER_LIMIT * gates::distance_tolerance_ceiling_mm(self.tool);
+        let pose = pose_from_markers(self.tool, &markers_in_world, limit_mm).ok()?;
+        let mut flags: Vec<Flag> = labels
+            .values()
+            .flat_map(|p| points[*p].flags.iter().cloned())
+            .collect();
+        flags.push(Flag::LabelledFromNeighbour { frame });
+        if pose.markers < model.len() {
+            flags.push(Flag::FewerMarkers {
+                used: pose.markers,
+                of: model.len(),
+            });
+        }
+        if pose.rms_mm > self.config.max_registration_rms_mm {
+            flags.push(Flag::RegistrationResidual {
+                rms_mm: pose.rms_mm,
+                gate_mm: self.config.max_registration_rms_mm,
+            });
+        }
+        let mut merged: Vec<CameraId> = labels.values().filter_map(|p| points[*p].merged).collect();
+        merged.sort_unstable();
+        merged.dedup();
+        Some(FrameTrack {
+            outcome: Ok(pose),
+            points: points.into_iter().map(|p| p.point).collect(),
+            labels,
+            flags,
+            combinations: 1,
+            rival_in_world: None,
+            reflections: 0,
+            merged,
+        })
+    }
+
     /// Tracks every frame (in parallel) and assembles the trajectory; frame `i` is at time
     /// `i / fps`. Each sample carries its frame's status.
     #[must_use]
@@ -602,6 +833,99 @@ impl<'a> Tracker<'a> {
         let times: Vec<f64> = (0..tracks.len()).map(|i| i as f64 / fps).collect();
         (trajectory_from_tracks(&tracks, &times), tracks)
     }
+}
+
+/// A marker's point is labelled from a neighbour's pose when it lies within this fraction of
+/// the tool's closest marker distance of the marker's predicted place: under half, so no point
+/// is near two markers.
+pub const NEIGHBOUR_RADIUS: f64 = 0.3;
+
+/// Frames farthest apart a neighbour's pose labels across.
+pub const NEIGHBOUR_FRAMES: usize = 2;
+
+/// Frames lost because too few markers fitted the tool's distances (a marker partly hidden
+/// moves its point several millimetres) are labelled from the pose of a frame next to them
+/// (at most [`NEIGHBOUR_FRAMES`] away; forward through the recording, then backward, so a run
+/// of such frames is labelled one from the next): each marker takes the point near its place
+/// in the neighbour's pose. Such a pose is an `outlier` ([`Flag::LabelledFromNeighbour`]).
+/// A neighbour is a frame posed `ok` or `degraded`, or labelled so itself. `frames[i]` is frame
+/// `i`'s blob centres and shapes. Returns how many frames were posed so.
+pub fn fill_from_neighbours(
+    tracker: &Tracker<'_>,
+    frames: &[(&Views, &merged::Shapes)],
+    tracks: &mut [FrameTrack],
+) -> usize {
+    let anchor = |t: &FrameTrack| -> Option<ToolPose> {
+        let labelled = t
+            .flags
+            .iter()
+            .any(|f| matches!(f, Flag::LabelledFromNeighbour { .. }));
+        let pose = t.outcome.as_ref().ok()?;
+        (labelled || t.status() <= Status::Degraded).then_some(*pose)
+    };
+    let mut filled = 0;
+    let n = tracks.len().min(frames.len());
+    let order: Vec<(usize, bool)> = (0..n)
+        .map(|i| (i, true))
+        .chain((0..n).rev().map(|i| (i, false)))
+        .collect();
+    for (i, forward) in order {
+        if !matches!(tracks[i].outcome, Err(Lost::TooFewMarkers { .. })) {
+            continue;
+        }
+        let near: Vec<usize> = if forward {
+            (i.saturating_sub(NEIGHBOUR_FRAMES)..i).rev().collect()
+        } else {
+            (i + 1..(i + 1 + NEIGHBOUR_FRAMES).min(n)).collect()
+        };
+        let Some((j, pose)) = near
+            .into_iter()
+            .find_map(|j| Some((j, anchor(&tracks[j])?)))
+        else {
+            continue;
+        };
+        let (views, shapes) = frames[i];
+        if let Some(track) = tracker.track_from_neighbour(views, shapes, &pose, j) {
+            tracks[i] = track;
+            filled += 1;
+        }
+    }
+    filled
+}
+
+/// The temporal guard ([`temporal`]) over tracked frames: each frame whose pose is farther
+/// from its neighbours than the recording's own motion allows gets [`Flag::TemporalJump`]
+/// (an outlier). `tip_std_mm[i]` is frame `i`'s tip uncertainty (the gate's floor). Returns
+/// the step gate, `None` when too few steps were measured.
+pub fn guard_in_time(tracks: &mut [FrameTrack], tip_std_mm: &[Option<f64>]) -> Option<gates::Gate> {
+    let frames: Vec<temporal::TipFrame> = tracks
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let status = t.status();
+            temporal::TipFrame {
+                tip_in_world: t
+                    .outcome
+                    .as_ref()
+                    .ok()
+                    .filter(|_| status != Status::Outlier)
+                    .map(|p| p.tip_in_world),
+                confident: status == Status::Ok,
+                tip_std_mm: tip_std_mm.get(i).copied().flatten(),
+            }
+        })
+        .collect();
+    let check = temporal::temporal_outliers(&frames);
+    let gate_mm = check.gate.as_ref().map_or(f64::INFINITY, |g| g.value);
+    for (frame, deviation_mm) in check.outliers {
+        if let Some(track) = tracks.get_mut(frame) {
+            track.flags.push(Flag::TemporalJump {
+                deviation_mm,
+                gate_mm,
+            });
+        }
+    }
+    check.gate
 }
 
 /// The trajectory of tracked frames, frame `i` at `times_s[i]` (its exposure time; a frame

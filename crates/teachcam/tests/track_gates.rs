@@ -17,6 +17,7 @@ use teachcam::geometry::{Pixel, Point3, Pose, pose_from_parts};
 use teachcam::identify::{IdentifyConfig, identify};
 use teachcam::tool::Tool;
 use teachcam::track::gates::{GateOverrides, measure_gates, roundness_gate, sample_frames};
+use teachcam::track::merged::{BlobShape, MergedGate, Shapes, predicted_radius_px};
 use teachcam::track::{Lost, TrackConfig, Tracker};
 use teachcam::trajectory::Status;
 
@@ -152,6 +153,7 @@ fn two_webcams_at_two_metres_are_tracked_with_measured_gates() {
         &rig,
         &tool,
         &sample,
+        &[],
         roundness_gate(&[], None),
         &GateOverrides::default(),
     );
@@ -313,4 +315,112 @@ fn a_marker_a_little_beyond_the_distance_gate_gives_an_outlier_never_an_ok_pose(
         track.outcome,
         Err(Lost::TooFewMarkers { identified: 2, .. })
     ));
+}
+
+#[test]
+fn a_merged_blob_is_left_out_where_other_views_remain_and_named_where_it_is_used() {
+    let tool = triangle();
+    let pose = hand_poses(1, 4)[0];
+    let truth = pose * tool.tip_in_tool();
+    let mut three = two_webcams();
+    three.cameras.push(webcam(
+        "cam2",
+        Point3::new(0.0, -1900.0, 1200.0),
+        Point3::origin(),
+    ));
+    // Every blob 1.4 times the sphere's pinhole radius (blur and bloom), round; a glint
+    // touching marker 1 in cam0 pulls its centre 0.6 px (within the 1 px triangulation gate,
+    // so only its shape tells) and makes it 1.3 times larger and elongated.
+    let gate = MergedGate {
+        max_size_ratio: 1.15 * 1.4,
+        typical_size_ratio: 1.4,
+        min_roundness: 0.68,
+    };
+    let frame = |rig: &Rig| -> (Views, Shapes) {
+        let mut views = Views::new();
+        let mut shapes = Shapes::new();
+        for (id, camera) in rig.iter() {
+            let mut pixels = Vec::new();
+            let mut shape = Vec::new();
+            for (m, marker) in tool.markers_in_tool.iter().enumerate() {
+                let at = pose * marker;
+                let mut pixel = camera.project(&at).unwrap();
+                let radius =
+                    1.4 * predicted_radius_px(rig, id, &at, tool.marker_diameter_mm).unwrap();
+                let mut blob = BlobShape {
+                    radius_px: radius,
+                    roundness: 0.95,
+                };
+                if id.0 == 0 && m == 1 {
+                    pixel = Pixel::new(pixel.x + 0.6, pixel.y);
+                    blob = BlobShape {
+                        radius_px: 1.3 * radius,
+                        roundness: 0.62,
+                    };
+                }
+                pixels.push(pixel);
+                shape.push(blob);
+            }
+            views.insert(id, pixels);
+            shapes.insert(id, shape);
+        }
+        (views, shapes)
+    };
+    let config = TrackConfig {
+        merged: Some(gate),
+        ..TrackConfig::default()
+    };
+
+    // Three cameras: the merged view is left out, the other two make the marker.
+    let (views, shapes) = frame(&three);
+    let tracker = Tracker::new(&three, &tool, config.clone());
+    let track = tracker.track_frame_with_shapes(&views, &shapes);
+    assert_eq!(track.status(), Status::Degraded, "{}", track.reason());
+    assert!(
+        track.reason().contains("merged blob in camera 0") && track.reason().contains("left out"),
+        "{}",
+        track.reason()
+    );
+    let left_out = track.outcome.as_ref().unwrap();
+    // Exact projections otherwise: the pose is the truth to rounding.
+    assert!((left_out.tip_in_world - truth).norm() < 1e-3);
+    // Without the shapes the pulled centre is used (within the triangulation gate; the
+    // distances then need the widened gates) and the tip moves: the test can fail.
+    let blind = tracker.track_frame(&views);
+    let used = blind.outcome.as_ref().unwrap();
+    assert!(!blind.reason().contains("merged"), "{}", blind.reason());
+    assert!((used.tip_in_world - truth).norm() > 0.1);
+
+    // Two cameras: nothing else is left, the blob is used and the frame says so — posed
+    // degraded where the distances still fit (a 3 mm tolerance), else a gap naming it.
+    let two = two_webcams();
+    let (views, shapes) = frame(&two);
+    let loose = TrackConfig {
+        identify: IdentifyConfig {
+            distance_tolerance_mm: 3.0,
+        },
+        max_registration_rms_mm: 3.0,
+        ..config.clone()
+    };
+    let track = Tracker::new(&two, &tool, loose).track_frame_with_shapes(&views, &shapes);
+    assert_eq!(track.status(), Status::Degraded, "{}", track.reason());
+    assert!(
+        track.reason().contains("merged blob in camera 0")
+            && track.reason().contains("used: no other view"),
+        "{}",
+        track.reason()
+    );
+    let track = Tracker::new(&two, &tool, config).track_frame_with_shapes(&views, &shapes);
+    assert_eq!(track.status(), Status::Lost, "{}", track.reason());
+    assert!(
+        track.reason().ends_with("(merged blob in camera 0)"),
+        "{}",
+        track.reason()
+    );
+    // An isolated blob of typical size is never merged, however round or not (a marker
+    // partly hidden is smaller).
+    assert!(!gate.is_merged(1.4, 0.95));
+    assert!(!gate.is_merged(1.0, 0.5));
+    assert!(!gate.is_merged(1.45, 0.6));
+    assert!(gate.is_merged(1.4 * 1.2, 0.95));
 }

@@ -7,10 +7,11 @@ use teachcam::correspond::Views;
 use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
 use teachcam::pipeline::CameraSetup;
-use teachcam::track::Tracker;
 use teachcam::track::gates::{
     GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
+use teachcam::track::merged::{BlobShape, Shapes};
+use teachcam::track::{FrameTrack, Tracker};
 
 use crate::cmd::detect::{Frames, detect_folder};
 use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
@@ -102,31 +103,51 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
         .collect();
     let min_roundness = roundness_gate(&roundness, None);
     let kept_roundness = min_roundness.value;
+    let kept = |blobs: &[teachcam::detect::Blob]| -> Vec<teachcam::detect::Blob> {
+        blobs
+            .iter()
+            .filter(|b| b.roundness >= kept_roundness)
+            .cloned()
+            .collect()
+    };
     let views: Vec<Views> = blobs
         .iter()
         .map(|frame| {
             frame
                 .iter()
-                .map(|(id, blobs)| {
-                    let kept = blobs.iter().filter(|b| b.roundness >= kept_roundness);
-                    (*id, kept.map(|b| b.center).collect())
-                })
+                .map(|(id, blobs)| (*id, kept(blobs).iter().map(|b| b.center).collect()))
                 .collect()
         })
         .collect();
-    let sampled: Vec<Views> = sample_frames(views.len(), GATE_SAMPLE_FRAMES)
-        .into_iter()
-        .map(|f| views[f].clone())
+    let shapes: Vec<Shapes> = blobs
+        .iter()
+        .map(|frame| {
+            frame
+                .iter()
+                .map(|(id, blobs)| (*id, kept(blobs).iter().map(BlobShape::of).collect()))
+                .collect()
+        })
         .collect();
+    let sample = sample_frames(views.len(), GATE_SAMPLE_FRAMES);
+    let sampled: Vec<Views> = sample.iter().map(|&f| views[f].clone()).collect();
+    let sampled_shapes: Vec<Shapes> = sample.iter().map(|&f| shapes[f].clone()).collect();
     let gates = measure_gates(
         &rig,
         &tool,
         &sampled,
+        &sampled_shapes,
         min_roundness,
         &GateOverrides::default(),
     );
     let tracker = Tracker::new(&rig, &tool, gates.track_config());
-    let (_, tracks) = tracker.track_all(&views, recording.fps);
+    let tracks: Vec<FrameTrack> = {
+        use rayon::prelude::*;
+        views
+            .par_iter()
+            .zip(&shapes)
+            .map(|(v, s)| tracker.track_frame_with_shapes(v, s))
+            .collect()
+    };
     let config = DoctorConfig {
         min_roundness: kept_roundness,
         ..DoctorConfig::default()

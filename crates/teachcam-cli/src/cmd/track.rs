@@ -17,8 +17,11 @@ use teachcam::sync::ResampleIssue;
 use teachcam::track::gates::{
     Gate, GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
+use teachcam::track::merged::{BlobShape, Shapes};
 use teachcam::track::uncertainty::tip_std_mm;
-use teachcam::track::{FrameTrack, Tracker, trajectory_from_tracks};
+use teachcam::track::{
+    FrameTrack, Tracker, fill_from_neighbours, guard_in_time, trajectory_from_tracks,
+};
 use teachcam::trajectory::{Status, Trajectory};
 
 use crate::Rejected;
@@ -202,12 +205,22 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Blob centres of each frame (rig camera ids) and each frame's blobs' predicted noise.
+/// Blob centres of each frame (rig camera ids), their shapes and each frame's blobs'
+/// predicted noise.
 pub fn views_of(
     rig: &teachcam::camera::Rig,
     recording: &DetectedRecording,
-) -> (Vec<Views>, Vec<Vec<f64>>) {
+) -> (Vec<Views>, Vec<Shapes>, Vec<Vec<f64>>) {
     let by_camera = recording.blobs_by_camera(rig);
+    let shapes = by_camera
+        .iter()
+        .map(|frame| {
+            frame
+                .iter()
+                .map(|(id, blobs)| (*id, blobs.iter().map(BlobShape::of).collect()))
+                .collect()
+        })
+        .collect();
     let views = by_camera
         .iter()
         .map(|frame| {
@@ -221,7 +234,7 @@ pub fn views_of(
         .iter()
         .map(|frame| frame.values().flatten().map(|b| b.center_std_px).collect())
         .collect();
-    (views, noise)
+    (views, shapes, noise)
 }
 
 /// Where the gates are written beside the diagnostics: `<stem>.gates.json`.
@@ -282,7 +295,7 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         }
     };
     let frame_count = recording.sets.len();
-    let (mut views, noise) = views_of(&rig, &recording);
+    let (mut views, shapes, noise) = views_of(&rig, &recording);
     let synchronised = match &args.time_offsets {
         Some(arg) => {
             let synchronised = time_offsets::synchronise(arg, &rig, views, recording.fps)?;
@@ -294,11 +307,23 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     };
 
     // The other gates from a sample of the detected frames.
-    let sampled: Vec<Views> = sample_frames(frame_count, GATE_SAMPLE_FRAMES)
-        .into_iter()
-        .map(|f| views[f].clone())
-        .collect();
-    let gates = measure_gates(&rig, &tool, &sampled, min_roundness, &overrides);
+    let sample = sample_frames(frame_count, GATE_SAMPLE_FRAMES);
+    let sampled: Vec<Views> = sample.iter().map(|&f| views[f].clone()).collect();
+    // Resampled blobs (time offsets) no longer sit where their shapes were measured.
+    let shapes = if synchronised.is_some() {
+        vec![Shapes::new(); frame_count]
+    } else {
+        shapes
+    };
+    let sampled_shapes: Vec<Shapes> = sample.iter().map(|&f| shapes[f].clone()).collect();
+    let gates = measure_gates(
+        &rig,
+        &tool,
+        &sampled,
+        &sampled_shapes,
+        min_roundness,
+        &overrides,
+    );
     eprint!("{gates}");
     let config = gates.track_config();
     check_identifiable(&tool, &config.identify)
@@ -306,10 +331,27 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         .rejected()?;
 
     let tracker = Tracker::new(&rig, &tool, config);
-    let tracks: Vec<FrameTrack> = {
+    let mut tracks: Vec<FrameTrack> = {
         use rayon::prelude::*;
-        views.par_iter().map(|v| tracker.track_frame(v)).collect()
+        views
+            .par_iter()
+            .zip(&shapes)
+            .map(|(v, s)| tracker.track_frame_with_shapes(v, s))
+            .collect()
     };
+    let frames: Vec<(&Views, &Shapes)> = views.iter().zip(&shapes).collect();
+    fill_from_neighbours(&tracker, &frames, &mut tracks);
+    let stds = tip_std_mm(&rig, &tool, &tracks, &noise);
+    match guard_in_time(&mut tracks, &stds) {
+        Some(gate) => eprintln!(
+            "  {:<24} {:>8.3} mm  {}",
+            "tip step per frame", gate.value, gate.reason
+        ),
+        None => eprintln!(
+            "  {:<24} none: too few steps between ok frames",
+            "tip step per frame"
+        ),
+    }
     let times: Vec<f64> = recording.sets.iter().map(|s| s.time_s).collect();
     let mut trajectory = trajectory_from_tracks(&tracks, &times);
     if let Some(synchronised) = &synchronised {
@@ -325,11 +367,7 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
             &tool.name, &tracks,
         ))));
     }
-    for (sample, std) in trajectory
-        .samples
-        .iter_mut()
-        .zip(tip_std_mm(&rig, &tool, &tracks, &noise))
-    {
+    for (sample, std) in trajectory.samples.iter_mut().zip(stds) {
         sample.tip_std_mm = std;
     }
     let outputs = OutputSet::new();

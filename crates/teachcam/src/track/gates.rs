@@ -27,6 +27,11 @@
 //! keeps the library's default. Every gate can be overridden ([`GateOverrides`]); an overridden
 //! gate is also used in the first pass.
 //!
+//! Where the blobs' shapes are given, the confident markers' blobs also set when a blob is
+//! *merged* ([`crate::track::merged`]): size ratio over its median, `median + 4σ̂` (floor 1.15: a blob's
+//! radius scatters by a few percent with its sub-pixel phase; ceiling √2: two equal touching
+//! discs' flux), roundness `median − 4σ̂` (floor 0.5, ceiling 0.9).
+//!
 //! The first pass also looks for a mirror (a shiny work object): frames where the tool's
 //! rival labelling is its pure reflection through one plane ([`crate::track::reflections`]).
 //! Its marker noise is the first pass's distance tolerance, the largest identification takes.
@@ -39,6 +44,7 @@ use crate::correspond::{CorrespondConfig, EpipolarGeometry, Views};
 use crate::geometry::CameraId;
 use crate::identify::IdentifyConfig;
 use crate::tool::Tool;
+use crate::track::merged::{MergedGate, Shapes, size_ratio};
 use crate::track::reflections::{MirrorPlane, learn_mirror};
 use crate::track::{FrameTrack, TrackConfig, Tracker};
 use crate::triangulate::TriangulateConfig;
@@ -114,6 +120,10 @@ pub struct Gates {
     pub mirror: Option<MirrorPlane>,
     /// Why there is a mirror or none, for people.
     pub mirror_reason: String,
+    /// When a marker's blob is merged with something touching it, if measured.
+    pub merged: Option<MergedGate>,
+    /// How the merged-blob gate was set, or why there is none, for people.
+    pub merged_reason: String,
 }
 
 /// Gates the user fixed; `None` is measured.
@@ -283,6 +293,32 @@ const RESIDUAL: Rule<'static> = Rule {
     default: (1.0, "the triangulation default"),
 };
 
+const SIZE_RATIO: Rule<'static> = Rule {
+    what: "marker blobs",
+    unit: "",
+    side: Side::Upper,
+    k: 4.0,
+    floor: (
+        1.15,
+        "a blob's radius scatters by a few percent with its sub-pixel phase",
+    ),
+    ceiling: (
+        std::f64::consts::SQRT_2,
+        "two equal touching discs have sqrt(2) the radius of one",
+    ),
+    default: (std::f64::consts::SQRT_2, "two equal touching discs"),
+};
+
+const MERGED_ROUNDNESS: Rule<'static> = Rule {
+    what: "marker blobs",
+    unit: "",
+    side: Side::Lower,
+    k: 4.0,
+    floor: (0.5, "two touching equal discs score 0.5"),
+    ceiling: (0.9, "compressed small discs score 0.9 and less"),
+    default: (0.5, "two touching equal discs"),
+};
+
 const REGISTRATION: Rule<'static> = Rule {
     what: "confident frames",
     unit: "mm",
@@ -362,6 +398,8 @@ struct Evidence {
     residual_px: Vec<f64>,
     distance_error_mm: Vec<f64>,
     registration_mm: Vec<f64>,
+    /// Size ratio and roundness of each confident marker's blob in each view.
+    blobs: Vec<(f64, f64)>,
     confident: usize,
 }
 
@@ -375,15 +413,43 @@ fn is_confident(track: &FrameTrack, tool: &Tool) -> bool {
             .all(|f| matches!(f, crate::track::Flag::RegistrationResidual { .. }))
 }
 
-fn gather(rig: &Rig, tool: &Tool, geometry: &EpipolarGeometry, tracks: &[FrameTrack]) -> Evidence {
+fn gather(
+    rig: &Rig,
+    tool: &Tool,
+    geometry: &EpipolarGeometry,
+    tracks: &[FrameTrack],
+    frames: &[Views],
+    shapes: &[Shapes],
+) -> Evidence {
     let mut evidence = Evidence::default();
-    for track in tracks.iter().filter(|t| is_confident(t, tool)) {
+    for (frame, track) in tracks.iter().enumerate() {
+        if !is_confident(track, tool) {
+            continue;
+        }
         let Ok(pose) = &track.outcome else { continue };
         evidence.confident += 1;
         evidence.registration_mm.push(pose.rms_mm);
         for (marker, &p) in &track.labels {
             let point = &track.points[p];
             evidence.residual_px.push(point.residual_px);
+            for (camera, pixel) in &point.views {
+                // The blob is the one of its camera's list at this very centre.
+                let shape = frames.get(frame).zip(shapes.get(frame)).and_then(|(v, s)| {
+                    let i = v.get(camera)?.iter().position(|b| b == pixel)?;
+                    s.get(camera)?.get(i)
+                });
+                if let Some(shape) = shape
+                    && let Some(ratio) = size_ratio(
+                        rig,
+                        *camera,
+                        shape,
+                        &point.position,
+                        tool.marker_diameter_mm,
+                    )
+                {
+                    evidence.blobs.push((ratio, shape.roundness));
+                }
+            }
             let ideal: Vec<(CameraId, crate::geometry::Pixel)> = point
                 .views
                 .iter()
@@ -407,7 +473,8 @@ fn gather(rig: &Rig, tool: &Tool, geometry: &EpipolarGeometry, tracks: &[FrameTr
 }
 
 /// Measures every tracking gate from a sample of frames' blob centres (`frames`, e.g. the
-/// frames of [`sample_frames`] detected with the roundness gate) and returns them with
+/// frames of [`sample_frames`] detected with the roundness gate) and their blobs' shapes
+/// (`shapes`, one per frame, or none: no merged-blob gate), and returns them with
 /// `min_roundness` (from [`roundness_gate`]) alongside. Overridden gates are used as given,
 /// in the first pass too.
 #[must_use]
@@ -415,6 +482,7 @@ pub fn measure_gates(
     rig: &Rig,
     tool: &Tool,
     frames: &[Views],
+    shapes: &[Shapes],
     min_roundness: Gate,
     overrides: &GateOverrides,
 ) -> Gates {
@@ -439,6 +507,7 @@ pub fn measure_gates(
             .max_registration_rms_mm
             .unwrap_or(REGISTRATION.ceiling.0),
         mirror: None,
+        merged: None,
     };
     let mirror_noise_mm = first_pass.identify.distance_tolerance_mm;
     let tracker = Tracker::new(rig, tool, first_pass);
@@ -447,7 +516,7 @@ pub fn measure_gates(
         frames.par_iter().map(|v| tracker.track_frame(v)).collect()
     };
     let geometry = EpipolarGeometry::new(rig);
-    let evidence = gather(rig, tool, &geometry, &tracks);
+    let evidence = gather(rig, tool, &geometry, &tracks, frames, shapes);
 
     let all_epipolar: Vec<f64> = evidence.epipolar_px.values().flatten().copied().collect();
     let epipolar_tolerance_px = match overrides.epipolar_tolerance_px {
@@ -512,6 +581,7 @@ pub fn measure_gates(
         }
         Err(why) => (None, format!("none: {why}")),
     };
+    let (merged, merged_reason) = merged_gate(&evidence.blobs);
     Gates {
         min_roundness,
         epipolar_tolerance_px,
@@ -525,7 +595,39 @@ pub fn measure_gates(
         confident_frames: evidence.confident,
         mirror,
         mirror_reason,
+        merged,
+        merged_reason,
     }
+}
+
+/// The merged-blob gate from the confident markers' blobs (size ratio, roundness), with its
+/// reason; none with fewer than [`MIN_SAMPLES`].
+fn merged_gate(blobs: &[(f64, f64)]) -> (Option<MergedGate>, String) {
+    let ratios: Vec<f64> = blobs.iter().map(|b| b.0).collect();
+    let roundness: Vec<f64> = blobs.iter().map(|b| b.1).collect();
+    let Some(typical) = median(&ratios).filter(|_| blobs.len() >= MIN_SAMPLES) else {
+        return (
+            None,
+            format!(
+                "none: {} marker blobs with shapes measured, {MIN_SAMPLES} needed",
+                blobs.len()
+            ),
+        );
+    };
+    // Relative to the typical ratio: blur and bloom scale every marker's blob alike.
+    let relative: Vec<f64> = ratios.iter().map(|r| r / typical).collect();
+    let size = SIZE_RATIO.measure(&relative);
+    let round = MERGED_ROUNDNESS.measure(&roundness);
+    let gate = MergedGate {
+        max_size_ratio: size.value * typical,
+        typical_size_ratio: typical,
+        min_roundness: round.value,
+    };
+    let reason = format!(
+        "radius over the sphere's predicted one above {:.3} × the typical {typical:.3} ({}), or roundness under {:.3} ({}) above halfway between the two sizes",
+        size.value, size.reason, round.value, round.reason
+    );
+    (Some(gate), reason)
 }
 
 impl Gates {
@@ -558,6 +660,8 @@ impl Gates {
             confident_frames: 0,
             mirror: None,
             mirror_reason: "none: nothing measured".into(),
+            merged: None,
+            merged_reason: "none: nothing measured".into(),
         }
     }
 
@@ -583,6 +687,7 @@ impl Gates {
             },
             max_registration_rms_mm: self.max_registration_rms_mm.value,
             mirror: self.mirror.clone(),
+            merged: self.merged,
         }
     }
 }
@@ -609,7 +714,8 @@ impl fmt::Display for Gates {
         line("triangulation residual", &self.max_residual_px, "px")?;
         line("distance tolerance", &self.distance_tolerance_mm, "mm")?;
         line("registration residual", &self.max_registration_rms_mm, "mm")?;
-        writeln!(f, "  {:<24} {}", "mirror", self.mirror_reason)
+        writeln!(f, "  {:<24} {}", "mirror", self.mirror_reason)?;
+        writeln!(f, "  {:<24} {}", "merged blob", self.merged_reason)
     }
 }
 

@@ -9,6 +9,7 @@
 //! ```text
 //! f = max(1, s_reg / median(s_reg), σ̂_frame / σ̂)      s_reg = rms · sqrt(n / (3n − 6))
 //! ```
+//! The typical values (`σ̂`, `median(s_reg)`) are those of the `ok` frames.
 //! `s_reg` is the registration residual per degree of freedom (`n` markers give `3n` numbers
 //! for 6 unknowns), so frames with three and four markers compare; `σ̂_frame` is the residual
 //! scale of the frame's own markers. A frame whose markers fit 20 times worse than usual has
@@ -19,6 +20,7 @@ use crate::metrology::{first_order, residual_noise_px};
 use crate::tool::Tool;
 use crate::track::FrameTrack;
 use crate::track::gates::median;
+use crate::trajectory::Status;
 
 /// Root mean square of `values`; 0 for none.
 #[must_use]
@@ -43,8 +45,15 @@ pub fn tip_std_mm(
     blob_noise_px: &[Vec<f64>],
 ) -> Vec<Option<f64>> {
     let predicted_px = rms(&blob_noise_px.concat());
+    // What is typical comes from the `ok` frames (all posed ones where none is): outliers,
+    // however many, must not make each other look typical.
+    let typical: Vec<&FrameTrack> = if tracks.iter().any(|t| t.status() == Status::Ok) {
+        tracks.iter().filter(|t| t.status() == Status::Ok).collect()
+    } else {
+        tracks.iter().collect()
+    };
     let shown_px = residual_noise_px(
-        tracks
+        typical
             .iter()
             .flat_map(|t| t.labels.values().map(|&p| &t.points[p])),
     );
@@ -52,7 +61,7 @@ pub fn tip_std_mm(
         Some(shown) if predicted_px > 0.0 => shown / predicted_px,
         _ => 1.0,
     };
-    let registration: Vec<f64> = tracks
+    let registration: Vec<f64> = typical
         .iter()
         .filter_map(|t| {
             let pose = t.outcome.as_ref().ok()?;

@@ -109,7 +109,7 @@ pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
         &args.detect,
         overrides.min_roundness,
     )?;
-    let (views, _) = views_of(&rig, &detected.recording);
+    let (views, _, _) = views_of(&rig, &detected.recording);
     let sampled: Vec<Views> = sample_frames(views.len(), GATE_SAMPLE_FRAMES)
         .into_iter()
         .map(|f| views[f].clone())
@@ -170,6 +170,7 @@ impl Rounds<'_> {
                 rig,
                 self.tool,
                 self.sampled,
+                &[],
                 self.min_roundness.clone(),
                 overrides,
             );
