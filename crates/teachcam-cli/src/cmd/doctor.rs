@@ -11,7 +11,7 @@ use teachcam::track::gates::{
     GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
 use teachcam::track::merged::{BlobShape, Shapes};
-use teachcam::track::{FrameTrack, Tracker};
+use teachcam::track::{FrameTrack, Tracker, fill_from_neighbours};
 
 use crate::cmd::detect::{Frames, detect_folder};
 use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
@@ -140,7 +140,7 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
         &GateOverrides::default(),
     );
     let tracker = Tracker::new(&rig, &tool, gates.track_config());
-    let tracks: Vec<FrameTrack> = {
+    let mut tracks: Vec<FrameTrack> = {
         use rayon::prelude::*;
         views
             .par_iter()
@@ -148,6 +148,9 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
             .map(|(v, s)| tracker.track_frame_with_shapes(v, s))
             .collect()
     };
+    // As `track` does: frames with too few markers for the distances, from a neighbour.
+    let frames: Vec<(&Views, &Shapes)> = views.iter().zip(&shapes).collect();
+    fill_from_neighbours(&tracker, &frames, &mut tracks);
     let config = DoctorConfig {
         min_roundness: kept_roundness,
         ..DoctorConfig::default()

@@ -175,8 +175,10 @@ pub struct ConfidentFrame {
 }
 
 /// The frames whose identification is confident: a pose that is not an outlier, every marker
-/// of the tool identified, each in two or more cameras, no rival labelling, one pairing
-/// combination (correspondence unique).
+/// of the tool identified, each in two or more cameras, no rival labelling. Ambiguous
+/// pairings are allowed: the tracker already loses a frame whose rival combination fits the
+/// tool nearly as well, and with widened gates (a bumped camera) nearly every frame of a
+/// two-camera rig has several.
 #[must_use]
 pub fn confident_views(tool: &Tool, tracks: &[FrameTrack]) -> Vec<ConfidentFrame> {
     tracks
@@ -186,8 +188,7 @@ pub fn confident_views(tool: &Tool, tracks: &[FrameTrack]) -> Vec<ConfidentFrame
             let pose = track.outcome.as_ref().ok()?;
             let confident = track.status() != Status::Outlier
                 && track.labels.len() == tool.markers_in_tool.len()
-                && track.rival_in_world.is_none()
-                && track.combinations == 1;
+                && track.rival_in_world.is_none();
             if !confident {
                 return None;
             }

@@ -445,9 +445,24 @@ pub(super) fn form_image<R: Rng>(
     let table: Vec<f32> = (0..NOISE_TABLE_SIZE)
         .map(|_| StandardNormal.sample(rng))
         .collect();
+    // Where nothing was drawn and the light is even, a pixel's value depends on its draw only:
+    // those values, one per table entry, are computed once (the same arithmetic as below).
+    let dark: Option<Vec<u8>> = config.uneven_light.is_none().then(|| {
+        table
+            .iter()
+            .map(|d| (config.background_dn + config.read_noise_dn * f64::from(*d) + 0.5) as u8)
+            .collect()
+    });
     let mut image = GrayImage::new(width, height);
     for (index, (value, signal)) in image.iter_mut().zip(&blurred).enumerate() {
-        let draw = f64::from(table[(rng.next_u32() as usize) & (NOISE_TABLE_SIZE - 1)]);
+        let entry = (rng.next_u32() as usize) & (NOISE_TABLE_SIZE - 1);
+        if *signal == 0.0
+            && let Some(dark) = &dark
+        {
+            *value = dark[entry];
+            continue;
+        }
+        let draw = f64::from(table[entry]);
         let signal = f64::from(*signal);
         let sigma = if signal == 0.0 {
             config.read_noise_dn
@@ -468,7 +483,9 @@ pub(super) fn form_image<R: Rng>(
                 )
             }
         };
-        *value = (level + sigma * draw).round().clamp(0.0, 255.0) as u8;
+        // Rounded to the nearest level and clamped to 0..=255: `as u8` truncates and saturates,
+        // so adding one half rounds (half up) without a call to `round`.
+        *value = (level + sigma * draw + 0.5) as u8;
     }
     image
 }

@@ -24,7 +24,7 @@ use crate::cmd::track::{
 /// Tracks the recording through the rig with the gates measured through it (in the first round,
 /// when that leaves too few frames, again with the epipolar and triangulation gates widened to
 /// 3x their ceilings: a camera bumped further loses most frames at the measured gates), takes the frames whose identification is confident (every marker identified in two
-/// or more cameras, no rival labelling, a unique correspondence), and adjusts every camera's
+/// or more cameras, no rival labelling), and adjusts every camera's
 /// extrinsics and every such frame's tool pose together, the tool's marker geometry exact
 /// (it fixes the scale), intrinsics held as given; then tracks again through the moved rig, a
 /// few rounds. The world stays where the rig has it: one camera is held fixed, the one that
