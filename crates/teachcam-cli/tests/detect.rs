@@ -1,7 +1,6 @@
 //! `teachcam detect` and `teachcam repeatability` end to end: outputs, exit codes, messages.
 
 use std::path::Path;
-use std::process::Command;
 
 use image::{GrayImage, Luma};
 
@@ -39,12 +38,9 @@ fn recording(root: &Path, cameras: &[&str], frames: u32) {
     }
 }
 
-fn teachcam(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+#[path = "support/run.rs"]
+mod run;
+use run::teachcam;
 
 #[test]
 fn detect_writes_the_contract_columns_for_every_frame() {

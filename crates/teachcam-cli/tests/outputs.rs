@@ -9,12 +9,9 @@ use teachcam::geometry::{FrameIndex, Point3, pose_from_parts};
 use teachcam::io::trajectory::write_trajectory;
 use teachcam::trajectory::{Sample, ToolPose, Trajectory};
 
-fn teachcam(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+#[path = "support/run.rs"]
+mod run;
+use run::teachcam;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

@@ -11,12 +11,9 @@ use std::process::{Command, Stdio};
 use teachcam::io::recording::{list_recording, read_timestamps};
 use teachcam::io::trajectory::read_trajectory;
 
-fn teachcam(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+#[path = "support/run.rs"]
+mod run;
+use run::teachcam;
 
 fn stderr(output: &std::process::Output) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()

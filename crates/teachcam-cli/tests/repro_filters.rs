@@ -3,17 +3,14 @@
 //! answered correctly.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use teachcam::io::trajectory::read_trajectory;
 use teachcam_testdata::shared_repro;
 
-fn teachcam(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+#[path = "support/run.rs"]
+mod run;
+use run::teachcam;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

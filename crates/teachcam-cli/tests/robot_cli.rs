@@ -3,7 +3,7 @@
 
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use nalgebra::{UnitQuaternion, Vector3};
 use teachcam::geometry::{FrameIndex, Point3, pose_from_parts};
@@ -47,12 +47,9 @@ fn write_stroke(path: &Path, time_scale: f64) {
     write_trajectory(path, &Trajectory { samples }).unwrap();
 }
 
-fn teachcam(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+#[path = "support/run.rs"]
+mod run;
+use run::teachcam;
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()

@@ -1,7 +1,7 @@
 //! `teachcam smooth`, `spectrum` and `smoothing-study` end to end: files, exit codes, messages.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use nalgebra::{UnitQuaternion, Vector3};
 use teachcam::geometry::{FrameIndex, Point3, pose_from_parts};
@@ -9,12 +9,9 @@ use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::smooth::butterworth::Butterworth;
 use teachcam::trajectory::{Sample, ToolPose, Trajectory};
 
-fn teachcam(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+#[path = "support/run.rs"]
+mod run;
+use run::teachcam;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

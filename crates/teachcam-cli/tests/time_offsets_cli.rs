@@ -8,16 +8,12 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Command;
 
 use teachcam::io::trajectory::read_trajectory;
 
-fn teachcam(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+#[path = "support/run.rs"]
+mod run;
+use run::teachcam;
 
 fn simulate(scenario: &str, out: &Path, frames: usize) {
     let frames = frames.to_string();

@@ -23,12 +23,9 @@ use nalgebra::Vector3;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::trajectory::Trajectory;
 
-fn teachcam(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+#[path = "support/run.rs"]
+mod run;
+use run::teachcam;
 
 fn succeed(args: &[&str]) -> String {
     let out = teachcam(args);
