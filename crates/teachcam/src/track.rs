@@ -400,6 +400,21 @@ impl<'a> Tracker<'a> {
         self.track_frame_with_shapes(views, &merged::Shapes::new())
     }
 
+    /// Tracks every frame of a recording (in parallel), then labels the frames left with too
+    /// few markers from their neighbours ([`fill_from_neighbours`]): what `track` and `doctor`
+    /// both do. `views[i]` and `shapes[i]` are frame `i`'s.
+    #[must_use]
+    pub fn track_recording(&self, views: &[Views], shapes: &[merged::Shapes]) -> Vec<FrameTrack> {
+        let mut tracks: Vec<FrameTrack> = views
+            .par_iter()
+            .zip(shapes)
+            .map(|(v, s)| self.track_frame_with_shapes(v, s))
+            .collect();
+        let frames: Vec<(&Views, &merged::Shapes)> = views.iter().zip(shapes).collect();
+        fill_from_neighbours(self, &frames, &mut tracks);
+        tracks
+    }
+
     /// Tracks one frame from its blob centres per camera and their shapes (`shapes`, in the
     /// order of `views`; a camera left out is not checked): a marker's blob merged with
     /// something touching it ([`TrackConfig::merged`]) is left out of its point where other

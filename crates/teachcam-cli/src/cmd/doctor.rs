@@ -7,11 +7,11 @@ use teachcam::correspond::Views;
 use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
 use teachcam::pipeline::CameraSetup;
+use teachcam::track::Tracker;
 use teachcam::track::gates::{
     GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
 };
 use teachcam::track::merged::{BlobShape, Shapes};
-use teachcam::track::{FrameTrack, Tracker, fill_from_neighbours};
 
 use crate::cmd::detect::{Frames, detect_folder};
 use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
@@ -140,17 +140,7 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
         &GateOverrides::default(),
     );
     let tracker = Tracker::new(&rig, &tool, gates.track_config());
-    let mut tracks: Vec<FrameTrack> = {
-        use rayon::prelude::*;
-        views
-            .par_iter()
-            .zip(&shapes)
-            .map(|(v, s)| tracker.track_frame_with_shapes(v, s))
-            .collect()
-    };
-    // As `track` does: frames with too few markers for the distances, from a neighbour.
-    let frames: Vec<(&Views, &Shapes)> = views.iter().zip(&shapes).collect();
-    fill_from_neighbours(&tracker, &frames, &mut tracks);
+    let tracks = tracker.track_recording(&views, &shapes);
     let config = DoctorConfig {
         min_roundness: kept_roundness,
         ..DoctorConfig::default()

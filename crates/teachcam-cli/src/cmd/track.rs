@@ -19,9 +19,7 @@ use teachcam::track::gates::{
 };
 use teachcam::track::merged::{BlobShape, Shapes};
 use teachcam::track::uncertainty::tip_std_mm;
-use teachcam::track::{
-    FrameTrack, Tracker, fill_from_neighbours, guard_in_time, trajectory_from_tracks,
-};
+use teachcam::track::{FrameTrack, Tracker, guard_in_time, trajectory_from_tracks};
 use teachcam::trajectory::{Status, Trajectory};
 
 use crate::Rejected;
@@ -331,16 +329,7 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         .rejected()?;
 
     let tracker = Tracker::new(&rig, &tool, config);
-    let mut tracks: Vec<FrameTrack> = {
-        use rayon::prelude::*;
-        views
-            .par_iter()
-            .zip(&shapes)
-            .map(|(v, s)| tracker.track_frame_with_shapes(v, s))
-            .collect()
-    };
-    let frames: Vec<(&Views, &Shapes)> = views.iter().zip(&shapes).collect();
-    fill_from_neighbours(&tracker, &frames, &mut tracks);
+    let mut tracks = tracker.track_recording(&views, &shapes);
     let stds = tip_std_mm(&rig, &tool, &tracks, &noise);
     match guard_in_time(&mut tracks, &stds) {
         Some(gate) => eprintln!(
