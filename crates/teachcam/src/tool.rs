@@ -7,6 +7,11 @@
 
 use crate::geometry::{MarkerId, Point3, Pose};
 
+/// Smallest span (largest distance between two markers) of a tool, millimetres: the smallest
+/// retro-reflective markers sold are 3 mm spheres, so a layout under a millimetre across is a
+/// file written in metres.
+pub const MIN_TOOL_SPAN_MM: f64 = 1.0;
+
 /// Markers closer than this to the line through two others make the layout collinear: SVD
 /// registration has no unique rotation about that line (millimetres).
 pub const MIN_MARKER_SPREAD_MM: f64 = 1.0;
@@ -57,6 +62,14 @@ pub enum ToolError {
         /// The sphere diameter.
         diameter_mm: f64,
     },
+    /// A layout far smaller than any marker tool: positions given in metres.
+    #[error(
+        "the markers span only {span_mm:.4} mm; tool files are in millimetres (were the positions given in metres? multiply them by 1000)"
+    )]
+    TooSmall {
+        /// The largest distance between two markers.
+        span_mm: f64,
+    },
     /// All markers on one line.
     #[error(
         "markers are collinear (every marker within {MIN_MARKER_SPREAD_MM} mm of one line): the rotation about that line cannot be measured"
@@ -103,6 +116,13 @@ impl Tool {
             || !tool_from_tcp.rotation.coords.iter().all(|v| v.is_finite())
         {
             return Err(ToolError::NotFinite { what: "tip".into() });
+        }
+        let span_mm = markers_in_tool
+            .iter()
+            .flat_map(|a| markers_in_tool.iter().map(move |b| (a - b).norm()))
+            .fold(0.0, f64::max);
+        if span_mm < MIN_TOOL_SPAN_MM {
+            return Err(ToolError::TooSmall { span_mm });
         }
         for i in 0..markers_in_tool.len() {
             for j in i + 1..markers_in_tool.len() {

@@ -132,6 +132,27 @@ fn a_rendered_wand_dance_calibrates_the_rig_within_a_millimetre() {
     assert_eq!(report.posed, report.frames);
     assert!(centre_mm < 1.0, "camera centres off by {centre_mm} mm");
     assert!(rotation_deg < 0.05, "rotations off by {rotation_deg} deg");
+    assert!(
+        report.cameras_below.is_empty(),
+        "{:?}",
+        report.cameras_below
+    );
+    // The same L-frame described turned over (its z into the work object): every camera is
+    // below its plane, which the CLI warns of.
+    let flipped = teachcam::tool::Tool::new(
+        ground.tool.name.clone(),
+        ground.tool.marker_diameter_mm,
+        ground
+            .tool
+            .markers_in_tool
+            .iter()
+            .map(|m| teachcam::geometry::Point3::new(m.x, -m.y, -m.z))
+            .collect(),
+        ground.tool.tool_from_tcp,
+    )
+    .unwrap();
+    let (_, upside_down) = set_ground(&result.rig, &ground_frames, &flipped).unwrap();
+    assert_eq!(upside_down.cameras_below.len(), scene.rig.cameras.len());
 
     // The stroke: the paper's brush stroke (120 frames) on the same four-camera rig,
     // its markers projected exactly with 0.009 px of noise (what these renders leave after the

@@ -124,6 +124,11 @@ mod tests {
                 "collinear",
             ),
             (
+                // A brush written in metres (markers 50 mm apart, 10 mm spheres).
+                r#"{"name": "b", "marker_diameter_mm": 0.01, "markers": [[0,0,0],[0.05,0,0],[0,0.05,0]], "tip": [0,0,0.15]}"#,
+                "given in metres",
+            ),
+            (
                 r#"{"name": "b", "marker_diameter_mm": 10, "markers": [[0,0,0],[50,0,0],[0,50,0]], "tip": [0,0,0], "tip_rotation": [1,1,0,0]}"#,
                 "tip_rotation",
             ),

@@ -151,6 +151,14 @@ pub fn run_wand(args: &WandArgs) -> anyhow::Result<()> {
                 report.scatter_mm,
                 report.registration_rms_mm
             );
+            if report.cameras_below.len() == rig.cameras.len() {
+                crate::announce::warn(&format!(
+                    "every camera is below the ground frame's x-y plane (z < 0 in the new world): {}'s z axis points into the work object; the world (and a robot's work object set from it) is upside down unless that is meant",
+                    args.ground_tool
+                        .as_deref()
+                        .map_or_else(String::new, |p| p.display().to_string())
+                ));
+            }
             rig
         }
         _ => {

@@ -23,6 +23,10 @@ pub struct GroundReport {
     pub scatter_mm: f64,
     /// Mean registration RMS of the posed frames, millimetres.
     pub registration_rms_mm: f64,
+    /// Cameras whose centre lies below the ground frame's x-y plane (z < 0 in the new world).
+    /// All of them: the frame's z points into the work object, away from the cameras that film
+    /// it (a tool file whose z is meant up, read upside down, or a frame laid face down).
+    pub cameras_below: Vec<String>,
 }
 
 /// Frames of the ground recording that must be posed: 3, and at least half of them.
@@ -89,9 +93,16 @@ pub fn set_ground(
     for camera in &mut moved.cameras {
         camera.camera_from_world *= old_from_ground;
     }
+    let cameras_below = moved
+        .cameras
+        .iter()
+        .filter(|c| c.center_in_world().z < 0.0)
+        .map(|c| c.name.clone())
+        .collect();
     Ok((
         moved,
         GroundReport {
+            cameras_below,
             posed: poses.len(),
             frames: frames.len(),
             old_from_ground,
