@@ -488,19 +488,20 @@ fn check_frame_pixels(path: &Path, width: u32, height: u32) -> Result<(), FileEr
 /// # Errors
 /// [`FileError`] naming the file: unreadable, not an image, or too large.
 pub fn read_image(path: &Path) -> Result<image::DynamicImage, FileError> {
-    let reader = || {
-        image::ImageReader::open(path)
-            .and_then(image::ImageReader::with_guessed_format)
-            .map_err(|source| FileError::Read {
-                path: path.to_path_buf(),
-                source,
-            })
-    };
+    use image::ImageDecoder as _;
     let not_image =
         |e: image::ImageError| FileError::invalid(path, format!("not a readable image: {e}"));
-    let (width, height) = reader()?.into_dimensions().map_err(not_image)?;
+    let decoder = image::ImageReader::open(path)
+        .and_then(image::ImageReader::with_guessed_format)
+        .map_err(|source| FileError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .into_decoder()
+        .map_err(not_image)?;
+    let (width, height) = decoder.dimensions();
     check_frame_pixels(path, width, height)?;
-    reader()?.decode().map_err(not_image)
+    image::DynamicImage::from_decoder(decoder).map_err(not_image)
 }
 
 /// Encodes an 8-bit gray image as PNG and writes it atomically.
