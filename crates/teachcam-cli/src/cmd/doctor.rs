@@ -8,13 +8,11 @@ use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
 use teachcam::pipeline::CameraSetup;
 use teachcam::track::Tracker;
-use teachcam::track::gates::{
-    GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate, sample_frames,
-};
+use teachcam::track::gates::{GateOverrides, ROUNDNESS_FLOOR, roundness_gate, sample_frames};
 use teachcam::track::merged::{BlobShape, Shapes};
 
 use crate::cmd::detect::{Frames, detect_folder};
-use crate::cmd::track::{GATE_SAMPLE_FRAMES, ROUNDNESS_SAMPLE_FRAMES};
+use crate::cmd::track::{ROUNDNESS_SAMPLE_FRAMES, measure_gates_from_sample};
 
 /// Say where a recording's frames are lost, what the data shows, and what to do.
 ///
@@ -128,14 +126,11 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
                 .collect()
         })
         .collect();
-    let sample = sample_frames(views.len(), GATE_SAMPLE_FRAMES);
-    let sampled: Vec<Views> = sample.iter().map(|&f| views[f].clone()).collect();
-    let sampled_shapes: Vec<Shapes> = sample.iter().map(|&f| shapes[f].clone()).collect();
-    let gates = measure_gates(
+    let gates = measure_gates_from_sample(
         &rig,
         &tool,
-        &sampled,
-        &sampled_shapes,
+        &views,
+        &shapes,
         min_roundness,
         &GateOverrides::default(),
     );

@@ -27,6 +27,29 @@ use crate::cmd::detect::{DetectedRecording, Frames, detect_folder};
 
 pub use teachcam::track::uncertainty::rms;
 
+/// The gates measured from [`GATE_SAMPLE_FRAMES`] frames spread over the recording
+/// (`views[i]` and `shapes[i]` are frame `i`'s), as `track` and `doctor` measure them.
+pub fn measure_gates_from_sample(
+    rig: &teachcam::camera::Rig,
+    tool: &teachcam::tool::Tool,
+    views: &[Views],
+    shapes: &[Shapes],
+    min_roundness: Gate,
+    overrides: &GateOverrides,
+) -> teachcam::track::gates::Gates {
+    let sample = sample_frames(views.len(), GATE_SAMPLE_FRAMES);
+    let sampled: Vec<Views> = sample.iter().map(|&f| views[f].clone()).collect();
+    let sampled_shapes: Vec<Shapes> = sample.iter().map(|&f| shapes[f].clone()).collect();
+    measure_gates(
+        rig,
+        tool,
+        &sampled,
+        &sampled_shapes,
+        min_roundness,
+        overrides,
+    )
+}
+
 /// Frames whose images are detected twice to measure the roundness gate.
 pub const ROUNDNESS_SAMPLE_FRAMES: usize = 60;
 
@@ -304,24 +327,14 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
         None => None,
     };
 
-    // The other gates from a sample of the detected frames.
-    let sample = sample_frames(frame_count, GATE_SAMPLE_FRAMES);
-    let sampled: Vec<Views> = sample.iter().map(|&f| views[f].clone()).collect();
     // Resampled blobs (time offsets) no longer sit where their shapes were measured.
     let shapes = if synchronised.is_some() {
         vec![Shapes::new(); frame_count]
     } else {
         shapes
     };
-    let sampled_shapes: Vec<Shapes> = sample.iter().map(|&f| shapes[f].clone()).collect();
-    let gates = measure_gates(
-        &rig,
-        &tool,
-        &sampled,
-        &sampled_shapes,
-        min_roundness,
-        &overrides,
-    );
+    // The other gates from a sample of the detected frames.
+    let gates = measure_gates_from_sample(&rig, &tool, &views, &shapes, min_roundness, &overrides);
     eprint!("{gates}");
     let config = gates.track_config();
     check_identifiable(&tool, &config.identify)
