@@ -327,6 +327,19 @@ pub fn wrist_centre(robot: &Robot, joints: &Joints) -> Point3 {
     }
 }
 
+/// The arm drawn as a chain of straight links: the points where its links meet, in the base
+/// frame, from the base plate to the flange. A spherical wrist gives seven (base, axis 1 at
+/// shoulder height, axis 2, axis 3, the elbow offset, the wrist centre, the flange); a UR arm
+/// the seven origins of its DH frames 0–6. The first is the base origin, the last the flange
+/// origin of [`forward`]; consecutive points are a fixed link length apart for any joints.
+#[must_use]
+pub fn link_points(robot: &Robot, joints: &Joints) -> Vec<Point3> {
+    match &robot.arm {
+        Arm::SphericalWrist(p) => opw::link_points(&p.geometry(), &p.model_from_maker(joints)),
+        Arm::Ur(p) => ur::link_points(p, &joints.0),
+    }
+}
+
 /// Every inverse-kinematics solution for a flange pose (the maker's flange frame), up to
 /// eight, angles wrapped into (−π, π], ignoring joint limits; empty when out of reach.
 #[must_use]
@@ -444,6 +457,35 @@ mod tests {
         assert_relative_eq!(q.w.abs(), h, epsilon = 1e-12);
         assert_relative_eq!(q.j.abs(), h, epsilon = 1e-12);
         assert_relative_eq!(q.w * q.j, 0.5, epsilon = 1e-12);
+    }
+
+    #[test]
+    fn link_points_run_from_the_base_to_the_flange_with_fixed_link_lengths() {
+        for robot in [Robot::irb120(), Robot::kr6_r700(), Robot::ur5e()] {
+            let lengths = |joints: &Joints| -> Vec<f64> {
+                link_points(&robot, joints)
+                    .windows(2)
+                    .map(|pair| (pair[1] - pair[0]).norm())
+                    .collect()
+            };
+            let home = lengths(&Joints([0.0; 6]));
+            for joints in [
+                Joints([0.3, -0.4, 0.5, 1.1, -0.7, 2.0]),
+                Joints([-1.2, 0.2, -0.3, -2.0, 1.0, -0.5]),
+            ] {
+                let points = link_points(&robot, &joints);
+                assert_eq!(points.len(), 7, "{}", robot.name);
+                assert_relative_eq!(points[0], Point3::origin(), epsilon = 1e-12);
+                let flange = forward(&robot, &joints).translation.vector;
+                assert_relative_eq!(points[6].coords, flange, epsilon = 1e-9);
+                if matches!(robot.arm, Arm::SphericalWrist(_)) {
+                    assert_relative_eq!(points[5], wrist_centre(&robot, &joints), epsilon = 1e-9);
+                }
+                for (a, b) in lengths(&joints).iter().zip(&home) {
+                    assert_relative_eq!(*a, *b, epsilon = 1e-9);
+                }
+            }
+        }
     }
 
     #[test]

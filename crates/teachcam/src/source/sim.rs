@@ -7,10 +7,12 @@
 //! pipeline, not the renderer. A clock thread exposes set `k` at `start + k / fps` and hands it
 //! to a queue of [`SimConfig::queue_sets`] sets (a camera driver's buffers); when the queue is
 //! full the set is dropped and counted, so a consumer that cannot keep up shows drops instead of
-//! slowing the cameras down.
+//! slowing the cameras down. The rendered exposure can be scaled while the source runs
+//! ([`SimExposure`]): every level is multiplied by the scale and clipped at full scale, as a
+//! longer exposure of the same scene collects proportionally more light.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, TrySendError, sync_channel};
 use std::time::{Duration, Instant};
 
@@ -63,6 +65,60 @@ pub struct SimSource {
     fps: f64,
     sets: Receiver<FrameSet>,
     dropped: Arc<AtomicUsize>,
+    exposure: SimExposure,
+}
+
+/// A handle on a running [`SimSource`]'s exposure: a scale of the rendered levels (1: as
+/// rendered), applied to the sets exposed after it is set.
+#[derive(Debug, Clone)]
+pub struct SimExposure {
+    scale_bits: Arc<AtomicU64>,
+}
+
+impl SimExposure {
+    /// The largest scale accepted: beyond it every marker and most of the background saturate.
+    pub const MAX_SCALE: f64 = 16.0;
+
+    fn new() -> Self {
+        Self {
+            scale_bits: Arc::new(AtomicU64::new(1.0_f64.to_bits())),
+        }
+    }
+
+    /// The current scale.
+    #[must_use]
+    pub fn scale(&self) -> f64 {
+        f64::from_bits(self.scale_bits.load(Ordering::Relaxed))
+    }
+
+    /// Sets the scale; `None` (unchanged) unless it is finite and within `(0, MAX_SCALE]`.
+    pub fn set_scale(&self, scale: f64) -> Option<f64> {
+        (scale.is_finite() && scale > 0.0 && scale <= Self::MAX_SCALE).then(|| {
+            self.scale_bits.store(scale.to_bits(), Ordering::Relaxed);
+            scale
+        })
+    }
+}
+
+/// The frame with every level times `scale`, rounded and clipped at full scale.
+#[must_use]
+pub fn scale_levels(frame: &GrayFrame, scale: f64) -> GrayFrame {
+    match frame {
+        GrayFrame::Eight(image) => {
+            let mut image = image.clone();
+            for p in image.iter_mut() {
+                *p = (f64::from(*p) * scale + 0.5).min(255.0) as u8;
+            }
+            GrayFrame::Eight(image)
+        }
+        GrayFrame::Sixteen(image) => {
+            let mut image = image.clone();
+            for p in image.iter_mut() {
+                *p = (f64::from(*p) * scale + 0.5).min(65535.0) as u16;
+            }
+            GrayFrame::Sixteen(image)
+        }
+    }
 }
 
 /// Which cached frame set `k` shows: forwards, then backwards, so the motion never jumps.
@@ -119,6 +175,8 @@ impl SimSource {
         let counter = Arc::clone(&dropped);
         let fps = config.fps;
         let max_sets = config.max_sets;
+        let exposure = SimExposure::new();
+        let scale = exposure.clone();
         std::thread::spawn(move || {
             let period = Duration::from_secs_f64(1.0 / fps);
             let start = Instant::now();
@@ -131,6 +189,7 @@ impl SimSource {
                     std::thread::sleep(wait);
                 }
                 let cached_frame = &frames[ping_pong(k, frames.len())];
+                let exposure_scale = scale.scale();
                 let time_s = k as f64 / fps;
                 let set = FrameSet::new(
                     k,
@@ -142,7 +201,11 @@ impl SimSource {
                                 frame: k,
                                 time_s,
                                 sequence: Some(k as u64),
-                                data: FrameData::Decoded(Arc::clone(image)),
+                                data: FrameData::Decoded(if exposure_scale == 1.0 {
+                                    Arc::clone(image)
+                                } else {
+                                    Arc::new(scale_levels(image, exposure_scale))
+                                }),
                             })
                         })
                         .collect(),
@@ -161,7 +224,14 @@ impl SimSource {
             fps,
             sets,
             dropped,
+            exposure,
         })
+    }
+
+    /// The handle that scales the exposure of the sets to come.
+    #[must_use]
+    pub fn exposure(&self) -> SimExposure {
+        self.exposure.clone()
     }
 }
 
@@ -204,5 +274,21 @@ mod tests {
         let shown: Vec<usize> = (0..9).map(|k| ping_pong(k, 4)).collect();
         assert_eq!(shown, vec![0, 1, 2, 3, 2, 1, 0, 1, 2]);
         assert_eq!(ping_pong(5, 1), 0);
+    }
+
+    #[test]
+    fn exposure_scales_levels_and_clips_at_full_scale() {
+        let image = image::GrayImage::from_raw(3, 1, vec![10, 100, 200]).unwrap();
+        let GrayFrame::Eight(scaled) = scale_levels(&GrayFrame::Eight(image), 2.0) else {
+            panic!("8-bit in, 8-bit out");
+        };
+        assert_eq!(scaled.as_raw(), &vec![20, 200, 255]);
+        let exposure = SimExposure::new();
+        assert_eq!(exposure.scale(), 1.0);
+        assert_eq!(exposure.set_scale(0.5), Some(0.5));
+        assert_eq!(exposure.set_scale(0.0), None);
+        assert_eq!(exposure.set_scale(f64::NAN), None);
+        assert_eq!(exposure.set_scale(100.0), None);
+        assert_eq!(exposure.scale(), 0.5);
     }
 }

@@ -80,6 +80,30 @@ pub fn wrist_centre(geometry: &ArmGeometry, q: &[f64; 6]) -> Point3 {
     Point3::new(reach * c1, reach * s1, height)
 }
 
+/// The points where the links meet, base frame: the base origin, axis 1 at shoulder height,
+/// axis 2, axis 3, the end of the elbow offset, the wrist centre and `tool0`'s origin.
+#[must_use]
+pub fn link_points(geometry: &ArmGeometry, q: &[f64; 6]) -> Vec<Point3> {
+    let g = geometry;
+    let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), q[0]);
+    let lower = arm_rotation(q[0], q[1]);
+    let fore = arm_rotation(q[0], q[1] + q[2]);
+    let axis2 = Point3::from(turn * Vector3::new(g.shoulder_offset, 0.0, g.shoulder_height));
+    let axis3 = axis2 + lower * Vector3::new(0.0, 0.0, g.lower_arm);
+    let offset = axis3 + fore * Vector3::new(0.0, 0.0, g.elbow_offset);
+    let wrist = offset + fore * Vector3::new(g.forearm, 0.0, 0.0);
+    let tool0 = Point3::from(forward(geometry, q).translation.vector);
+    vec![
+        Point3::origin(),
+        Point3::new(0.0, 0.0, g.shoulder_height),
+        axis2,
+        axis3,
+        offset,
+        wrist,
+        tool0,
+    ]
+}
+
 /// `Rz(q1) Ry(q23)`: the forearm's frame before the wrist.
 fn arm_rotation(q1: f64, q23: f64) -> UnitQuaternion<f64> {
     UnitQuaternion::from_axis_angle(&Vector3::z_axis(), q1)

@@ -83,6 +83,19 @@ pub fn forward(parameters: &UrParameters, q: &[f64; 6]) -> Pose {
     })
 }
 
+/// The origins of DH frames 0 to 6 in the base frame (frame 6: the tool flange).
+#[must_use]
+pub fn link_points(parameters: &UrParameters, q: &[f64; 6]) -> Vec<crate::geometry::Point3> {
+    let (a, d) = (parameters.a(), parameters.d());
+    let mut pose = Pose::identity();
+    let mut points = vec![crate::geometry::Point3::origin()];
+    for i in 0..6 {
+        pose *= link(q[i], d[i], a[i], ALPHA[i]);
+        points.push(crate::geometry::Point3::from(pose.translation.vector));
+    }
+    points
+}
+
 /// Frame 5's origin in the base frame (where the flange axis meets wrist 2's axis, less `d6`).
 fn wrist_point(parameters: &UrParameters, base_from_flange: &Pose) -> Vector3<f64> {
     base_from_flange.translation.vector - base_from_flange.rotation * Vector3::z() * parameters.d6
