@@ -18,6 +18,7 @@ pub mod simulate;
 pub mod smooth;
 pub mod smoothing_study;
 pub mod spectrum;
+pub mod studio;
 pub mod tool_check;
 pub mod track;
 pub mod uncertainty;

@@ -52,6 +52,7 @@ enum Command {
     Track(cmd::track::Args),
     Record(cmd::record::Args),
     Live(cmd::live::Args),
+    Studio(cmd::studio::Args),
     Doctor(cmd::doctor::Args),
     Calibrate(cmd::calibrate::Args),
     Uncertainty(cmd::uncertainty::Args),
@@ -148,8 +149,8 @@ fn main() -> ExitCode {
         Err(error) => return usage_error(&error),
     };
     announce::set_quiet(cli.quiet);
-    if matches!(cli.command, Command::Record(_) | Command::Live(_)) {
-        // These two end on Ctrl-C by finishing the frame set in hand (a valid recording, a
+    if matches!(cli.command, Command::Record(_) | Command::Live(_) | Command::Studio(_)) {
+        // These end on Ctrl-C by finishing the frame set in hand (a valid recording, a
         // summary), so their handler comes first.
         cmd::record::catch_stop();
     }
@@ -169,6 +170,7 @@ fn main() -> ExitCode {
         Command::Track(args) => cmd::track::run(&args),
         Command::Record(args) => cmd::record::run(&args),
         Command::Live(args) => cmd::live::run(&args),
+        Command::Studio(args) => cmd::studio::run(&args),
         Command::Doctor(args) => cmd::doctor::run(&args),
         Command::Calibrate(args) => cmd::calibrate::run(&args),
         Command::Uncertainty(args) => cmd::uncertainty::run(&args),

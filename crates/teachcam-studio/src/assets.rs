@@ -10,3 +10,9 @@ pub const THREE_MODULE_JS: &str = include_str!("../web/vendor/three/three.module
 pub const THREE_CORE_JS: &str = include_str!("../web/vendor/three/three.core.js");
 /// three.js's orbit controls (imports `three`, mapped to the module entry by the page).
 pub const ORBIT_CONTROLS_JS: &str = include_str!("../web/vendor/three/OrbitControls.js");
+/// The studio's page.
+pub const STUDIO_HTML: &str = include_str!("../web/studio/index.html");
+/// The studio's script (an ES module: three.js through the page's import map).
+pub const STUDIO_JS: &str = include_str!("../web/studio/studio.js");
+/// The studio's style sheet.
+pub const STUDIO_CSS: &str = include_str!("../web/studio/studio.css");

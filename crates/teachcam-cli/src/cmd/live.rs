@@ -2,13 +2,15 @@
 
 use std::fmt::Write as _;
 use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use teachcam::camera::Rig;
 use teachcam::io::trajectory::write_trajectory;
 use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::pipeline::{PipelineConfig, TrackStream, TrackedFrame};
 use teachcam::source::{SourceSpec, open_source};
+use teachcam::tool::Tool;
 use teachcam::trajectory::{Sample, Trajectory};
 
 use crate::Rejected;
@@ -101,6 +103,30 @@ fn row(frame: &TrackedFrame) -> String {
     text
 }
 
+/// The rig and tool to track a source with: the files given, else the simulator scenario's
+/// own (shared by `live` and `studio`).
+pub fn rig_and_tool(
+    source: &SourceSpec,
+    rig: Option<&Path>,
+    tool: Option<&Path>,
+    sim: &teachcam::source::sim::SimConfig,
+) -> anyhow::Result<(Rig, Tool)> {
+    Ok(match (source, rig, tool) {
+        (_, Some(rig), Some(tool)) => (crate::load::rig(rig)?, crate::load::tool(tool)?),
+        (SourceSpec::Sim(scenario), rig, tool) => {
+            let scene = teachcam::source::sim::scene(*scenario, sim);
+            (
+                rig.map(read_rig).transpose().rejected()?.unwrap_or(scene.rig),
+                tool.map(read_tool)
+                    .transpose()
+                    .rejected()?
+                    .unwrap_or(scene.tool),
+            )
+        }
+        _ => anyhow::bail!("--rig and --tool are needed for a camera or recording source"),
+    })
+}
+
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let config = source_config(
@@ -111,25 +137,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.exposure_ms,
         args.gain,
     );
-    let (rig, tool) = match (&args.source, &args.rig, &args.tool) {
-        (_, Some(rig), Some(tool)) => (crate::load::rig(rig)?, crate::load::tool(tool)?),
-        (SourceSpec::Sim(scenario), rig, tool) => {
-            let scene = teachcam::source::sim::scene(*scenario, &config.sim);
-            (
-                rig.as_deref()
-                    .map(read_rig)
-                    .transpose()
-                    .rejected()?
-                    .unwrap_or(scene.rig),
-                tool.as_deref()
-                    .map(read_tool)
-                    .transpose()
-                    .rejected()?
-                    .unwrap_or(scene.tool),
-            )
-        }
-        _ => anyhow::bail!("--rig and --tool are needed for a camera or recording source"),
-    };
+    let (rig, tool) = rig_and_tool(
+        &args.source,
+        args.rig.as_deref(),
+        args.tool.as_deref(),
+        &config.sim,
+    )?;
     let mut source = open_source(&args.source, &config).rejected()?;
     let started = Instant::now();
     let mut latencies = Vec::new();

@@ -1,0 +1,159 @@
+//! `teachcam studio`: the local web app (cameras, 3-D view, record, review, robot, export).
+
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::path::PathBuf;
+
+use anyhow::Context;
+use teachcam::io::trajectory::read_trajectory;
+use teachcam::source::SourceSpec;
+use teachcam_studio::server::{Event, StudioConfig, StudioError, run as serve};
+
+use crate::Rejected;
+use crate::cmd::live::rig_and_tool;
+use crate::cmd::record::{parse_source, source_config, stop_requested};
+
+/// Open the studio: a local web app to aim the cameras, watch the tool in 3-D, record, review
+/// the smoothing, check the path on a robot and download its program.
+///
+/// Serves one page (no network needed: three.js and uPlot are inside the binary) at the
+/// printed address, `http://127.0.0.1:PORT/?token=...`; `--open` opens it in the browser.
+/// The frames come from REC (a recording folder; its rig.json and tool.json are used), from
+/// `--source` (the simulator `sim:paper` by default, or cameras `v4l2:/dev/video0,...` with
+/// `--rig` and `--tool`), tracked as `teachcam live` tracks them; a recording is played at its
+/// rate, again and again. Record / stop writes `take-001`, `take-002`, ... into `--out`.
+///
+/// The server listens on 127.0.0.1 only. `--listen ADDR` serves other machines, and every
+/// request must then carry the printed token. Ctrl-C stops it (a recording in progress is
+/// finished first). `GET /api/status` answers JSON with `source` and `frames` (processed so
+/// far), among others.
+#[derive(Debug, clap::Args)]
+#[command(after_help = r#"Examples:
+  teachcam studio
+  teachcam studio rec --port 8080 --open
+  teachcam studio --source v4l2:/dev/video0,/dev/video2 --rig rig.json --tool rec/tool.json --out takes"#)]
+pub struct Args {
+    /// A recording folder to play (its rig.json and tool.json unless --rig/--tool).
+    pub recording: Option<PathBuf>,
+    /// Where frames come from when no REC is given: sim:SCENARIO, v4l2:DEVICE[,DEVICE...],
+    /// folder:REC.
+    #[arg(long, value_parser = parse_source, conflicts_with = "recording")]
+    pub source: Option<SourceSpec>,
+    /// Camera rig (rig.json); the scenario's for sim sources, REC/rig.json for a recording.
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
+    /// Tool model (tool.json); the scenario's for sim sources, REC/tool.json for a recording.
+    #[arg(long)]
+    pub tool: Option<PathBuf>,
+    /// Frames per second (the simulator's rate, 30 by default; a recording's playback rate).
+    #[arg(long, value_parser = crate::flags::fps)]
+    pub fps: Option<f64>,
+    /// Port on 127.0.0.1 (0: any free one).
+    #[arg(long, default_value_t = 0)]
+    pub port: u16,
+    /// Listen on this address instead (IP or IP:PORT, e.g. 0.0.0.0:8080); every request must
+    /// then carry the token.
+    #[arg(long)]
+    pub listen: Option<String>,
+    /// Open the page in the default browser.
+    #[arg(long)]
+    pub open: bool,
+    /// Folder the recordings are written into.
+    #[arg(long, default_value = "studio-recordings")]
+    pub out: PathBuf,
+}
+
+/// The address to bind.
+fn address(args: &Args) -> anyhow::Result<SocketAddr> {
+    let Some(text) = &args.listen else {
+        return Ok(SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), args.port));
+    };
+    if let Ok(address) = text.parse::<SocketAddr>() {
+        return Ok(address);
+    }
+    let ip: IpAddr = text.parse().map_err(|_| {
+        anyhow::anyhow!("--listen {text:?}: expected an IP address or IP:PORT (0.0.0.0:8080)")
+    })?;
+    Ok(SocketAddr::new(ip, args.port))
+}
+
+/// Run the command.
+#[expect(
+    clippy::print_stdout,
+    reason = "the address is the command's output, even when quiet"
+)]
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let listen = address(args)?;
+    let source = match (&args.recording, &args.source) {
+        (Some(folder), _) => SourceSpec::Folder(folder.clone()),
+        (None, Some(source)) => source.clone(),
+        (None, None) => SourceSpec::Sim(teachcam::sim::Scenario::Paper),
+    };
+    let source_config = source_config(&source, args.fps, None, None, None, None);
+    let folder = match &source {
+        SourceSpec::Folder(folder) => Some(folder.clone()),
+        _ => None,
+    };
+    let beside = |name: &str, given: &Option<PathBuf>| {
+        given
+            .clone()
+            .or_else(|| folder.as_ref().map(|f| f.join(name)))
+    };
+    let (rig_path, tool_path) = (beside("rig.json", &args.rig), beside("tool.json", &args.tool));
+    let (rig, tool) = rig_and_tool(
+        &source,
+        rig_path.as_deref(),
+        tool_path.as_deref(),
+        &source_config.sim,
+    )?;
+    let truth = match folder.map(|f| f.join("truth.csv")) {
+        Some(path) if path.is_file() => Some(
+            read_trajectory(&path)
+                .rejected()
+                .with_context(|| "the recording's truth")?,
+        ),
+        _ => None,
+    };
+    let open = args.open;
+    let config = StudioConfig {
+        source,
+        source_config,
+        rig,
+        tool,
+        truth,
+        out: args.out.clone(),
+        listen,
+        token_everywhere: args.listen.is_some(),
+    };
+    let events = move |event: Event| match event {
+        Event::Listening { url } => {
+            println!("teachcam studio: {url}");
+            if open {
+                open_browser(&url);
+            }
+        }
+        Event::Wrote { path, summary } => crate::announce::wrote(&[path], &summary),
+    };
+    match serve(config, stop_requested, events) {
+        Ok(()) => Ok(()),
+        Err(e @ StudioError::Pipeline(_)) => Err(anyhow::Error::new(e)).rejected(),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// Opens `url` in the desktop's browser (xdg-open, open, or start); says so when none is found.
+fn open_browser(url: &str) {
+    let opener = if cfg!(target_os = "macos") {
+        "open"
+    } else {
+        "xdg-open"
+    };
+    if std::process::Command::new(opener)
+        .arg(url)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .is_err()
+    {
+        crate::announce::warn(&format!("cannot open a browser ({opener} not found): open {url}"));
+    }
+}

@@ -1,0 +1,345 @@
+//! The pipeline thread: the source's frames through the library's conductor
+//! ([`TrackStream`]), each tracked frame counted, added to the take, handed to a recording in
+//! progress and, downscaled, to the live view.
+//!
+//! A recording folder plays at its own rate (paced here, as a camera would deliver it) and
+//! starts again at its end; the simulator and cameras run on their own clocks. A change of
+//! threshold rebuilds the stream (the tracker's state starts afresh); a change of a camera's
+//! exposure reopens the cameras. An error on a frame (a threshold so low that the detector
+//! refuses the image) is shown in the status and the stream restarts with the next frame.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use teachcam::detect::{DetectConfig, Threshold};
+use teachcam::geometry::FrameIndex;
+use teachcam::pipeline::{PipelineConfig, PipelineError, TrackStream, TrackedFrame};
+use teachcam::source::sim::{SimConfig, SimSource};
+use teachcam::source::{
+    CameraFrame, FrameData, FrameSet, FrameSource, SourceCamera, SourceError, SourceSpec,
+    SourceStats, open_source,
+};
+use teachcam::trajectory::Sample;
+
+use super::preview::live_message;
+use super::state::{CameraCounts, ExposureControl, Studio};
+use super::{StudioConfig, StudioError};
+
+/// Frames per second of the studio's simulator: a camera rate, so that the live view, not
+/// the renderer, sets the pace (`teachcam live` defaults to 60).
+pub const SIM_FPS: f64 = 30.0;
+
+/// A source opened, with how its exposure is controlled.
+#[derive(Debug)]
+pub struct Opened {
+    /// The source.
+    pub source: Box<dyn FrameSource>,
+    /// Its exposure control.
+    pub exposure: ExposureControl,
+}
+
+/// Opens the configured source (the simulator at [`SIM_FPS`] unless a rate is given).
+///
+/// # Errors
+/// [`StudioError::Pipeline`] naming the folder, file or device that cannot be opened.
+pub fn open(config: &StudioConfig) -> Result<Opened, StudioError> {
+    let source_error = |e: SourceError| StudioError::Pipeline(PipelineError::Source(e));
+    match &config.source {
+        SourceSpec::Sim(scenario) => {
+            let sim = SimConfig {
+                fps: config.source_config.fps.unwrap_or(SIM_FPS),
+                max_sets: config.source_config.max_sets,
+                ..config.source_config.sim.clone()
+            };
+            let source = SimSource::start(*scenario, &sim).map_err(source_error)?;
+            let exposure = ExposureControl::Sim(source.exposure());
+            Ok(Opened {
+                source: Box::new(source),
+                exposure,
+            })
+        }
+        SourceSpec::V4l2(_) => Ok(Opened {
+            source: open_source(&config.source, &config.source_config).map_err(source_error)?,
+            exposure: ExposureControl::Camera,
+        }),
+        SourceSpec::Folder(_) => Ok(Opened {
+            source: open_source(&config.source, &config.source_config).map_err(source_error)?,
+            exposure: ExposureControl::Unsupported,
+        }),
+    }
+}
+
+/// The source as the stream reads it: a finite source paced at its rate and decoded here (so
+/// that the live view has the pixels detection saw, decoded once), every set kept for the
+/// live view and the recorder.
+#[derive(Debug)]
+struct Feed {
+    source: Box<dyn FrameSource>,
+    cameras: Vec<SourceCamera>,
+    /// For a finite source: when its first set was due.
+    paced_from: Option<Instant>,
+    delivered: usize,
+    last: Arc<Mutex<Option<FrameSet>>>,
+}
+
+impl Feed {
+    fn new(source: Box<dyn FrameSource>, last: Arc<Mutex<Option<FrameSet>>>) -> Self {
+        Self {
+            cameras: source.cameras().to_vec(),
+            paced_from: None,
+            delivered: 0,
+            source,
+            last,
+        }
+    }
+}
+
+impl FrameSource for Feed {
+    fn cameras(&self) -> &[SourceCamera] {
+        &self.cameras
+    }
+
+    fn fps(&self) -> f64 {
+        self.source.fps()
+    }
+
+    fn len_hint(&self) -> Option<usize> {
+        self.source.len_hint()
+    }
+
+    fn is_live(&self) -> bool {
+        true
+    }
+
+    fn next_set(&mut self) -> Option<Result<FrameSet, SourceError>> {
+        let mut set = match self.source.next_set()? {
+            Ok(set) => set,
+            Err(e) => return Some(Err(e)),
+        };
+        if !self.source.is_live() {
+            let start = *self.paced_from.get_or_insert_with(Instant::now);
+            let due = start + Duration::from_secs_f64(self.delivered as f64 / self.fps());
+            if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
+            for (camera, frame) in self.cameras.iter().zip(set.cameras.iter_mut()) {
+                if let Some(frame) = frame
+                    && matches!(frame.data, FrameData::Png(_))
+                {
+                    match frame.decode(&camera.name, None) {
+                        Ok(image) => frame.data = FrameData::Decoded(image),
+                        Err(e) => return Some(Err(e)),
+                    }
+                }
+            }
+            set.exposed_at = Some(due);
+        }
+        self.delivered += 1;
+        *self
+            .last
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(set.clone());
+        Some(Ok(set))
+    }
+
+    fn stats(&self) -> SourceStats {
+        self.source.stats()
+    }
+}
+
+/// The detector configuration of every rig camera under the page's threshold.
+fn pipeline_config(studio: &Studio, threshold: Option<u32>) -> PipelineConfig {
+    let config = studio.config();
+    let detect = config
+        .rig
+        .iter()
+        .map(|(id, camera)| {
+            let mut detect =
+                DetectConfig::for_marker(camera, config.tool.marker_diameter_mm, 300.0, 3000.0);
+            if let Some(level) = threshold {
+                detect.threshold = Threshold::Fixed(level);
+            }
+            (id, detect)
+        })
+        .collect();
+    PipelineConfig {
+        detect,
+        ..PipelineConfig::default()
+    }
+}
+
+/// The sample of a tracked frame, as `teachcam live` writes it.
+fn sample(frame: &TrackedFrame) -> Sample {
+    let index = FrameIndex(frame.detections.index);
+    match &frame.track.outcome {
+        Ok(pose) => {
+            let mut s = Sample::measured(index, frame.detections.time_s, *pose);
+            s.tip_std_mm = frame.tip_std_mm;
+            s.status = frame.track.status();
+            s
+        }
+        Err(_) => Sample::gap(index, frame.detections.time_s),
+    }
+}
+
+/// Runs until the studio shuts down.
+pub fn run(studio: &Studio, opened: Opened) {
+    let config = studio.config().clone();
+    let last = Arc::new(Mutex::new(None));
+    let mut feed = Some(Feed::new(opened.source, Arc::clone(&last)));
+    let mut exposure_ms = config.source_config.v4l2.exposure_ms;
+    while !studio.is_shutting_down() {
+        let controls = studio.live().controls.clone();
+        if matches!(studio.exposure(), ExposureControl::Camera)
+            && controls.exposure_ms != exposure_ms
+        {
+            // A camera is opened once at a time: close them, then open them anew.
+            drop(feed.take());
+            let mut source_config = config.source_config.clone();
+            source_config.v4l2.exposure_ms = controls.exposure_ms;
+            let reopened = open_source(&config.source, &source_config).or_else(|e| {
+                let mut live = studio.live();
+                live.error = Some(format!("exposure {:?} ms: {e}", controls.exposure_ms));
+                live.controls.exposure_ms = exposure_ms;
+                drop(live);
+                source_config.v4l2.exposure_ms = exposure_ms;
+                open_source(&config.source, &source_config)
+            });
+            match reopened {
+                Ok(source) => {
+                    exposure_ms = source_config.v4l2.exposure_ms;
+                    feed = Some(Feed::new(source, Arc::clone(&last)));
+                }
+                Err(e) => {
+                    studio.live().error = Some(format!("cannot reopen the cameras: {e}"));
+                    return;
+                }
+            }
+        }
+        let Some(current) = feed.as_mut() else { return };
+        match track(studio, current, &last, &controls) {
+            Ended::Restart => {}
+            Ended::Error(message) => {
+                studio.live().error = Some(message);
+                std::thread::sleep(Duration::from_millis(200));
+            }
+            Ended::SourceEnded if !current.source.is_live() => {
+                // A recording played to its end: its pass is the take; play it again.
+                {
+                    let mut live = studio.live();
+                    live.passes += 1;
+                    if live.recorder.is_none() {
+                        live.take.frozen = true;
+                    }
+                }
+                match open_source(&config.source, &config.source_config) {
+                    Ok(source) => feed = Some(Feed::new(source, Arc::clone(&last))),
+                    Err(e) => {
+                        studio.live().error = Some(e.to_string());
+                        return;
+                    }
+                }
+            }
+            Ended::SourceEnded => {
+                // A live source that reached its set limit stays ended.
+                while !studio.is_shutting_down() {
+                    std::thread::sleep(Duration::from_millis(100));
+                }
+            }
+        }
+    }
+}
+
+/// Why one stream ended.
+enum Ended {
+    /// The controls changed, or the studio is stopping.
+    Restart,
+    /// The source has no more sets.
+    SourceEnded,
+    /// A frame was refused.
+    Error(String),
+}
+
+/// Tracks the feed until the controls change, the source ends or a frame fails.
+fn track(
+    studio: &Studio,
+    feed: &mut Feed,
+    last: &Arc<Mutex<Option<FrameSet>>>,
+    controls: &super::state::Controls,
+) -> Ended {
+    let config = studio.config();
+    let pipeline = pipeline_config(studio, controls.threshold);
+    let fps = feed.fps();
+    // Each rig camera's place among the source's cameras (the rig's order is the stream's).
+    let positions: Vec<Option<usize>> = config
+        .rig
+        .iter()
+        .map(|(_, c)| feed.cameras.iter().position(|s| s.name == c.name))
+        .collect();
+    let mut stream = match TrackStream::new(feed, &config.rig, &config.tool, &pipeline) {
+        Ok(stream) => stream,
+        Err(e) => return Ended::Error(e.to_string()),
+    };
+    studio.live().source_fps = fps;
+    while !studio.is_shutting_down() {
+        let Some(frame) = stream.next() else {
+            return Ended::SourceEnded;
+        };
+        let frame = match frame {
+            Ok(frame) => frame,
+            Err(e) => return Ended::Error(e.to_string()),
+        };
+        let set = last
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .take()
+            .filter(|s| s.index == frame.detections.index);
+        let images: Vec<Option<&CameraFrame>> = match &set {
+            Some(set) => positions
+                .iter()
+                .map(|p| set.cameras.get((*p)?)?.as_ref())
+                .collect(),
+            None => vec![None; positions.len()],
+        };
+        let now = Instant::now();
+        let stats = stream.stats();
+        {
+            let mut live = studio.live();
+            live.frames += 1;
+            if frame.track.outcome.is_ok() {
+                live.posed += 1;
+            }
+            live.tick(now);
+            live.dropped = stats.dropped_sets;
+            live.error = None;
+            live.status = Some((
+                frame.track.status().name().to_string(),
+                frame.track.reason(),
+            ));
+            live.cameras = config
+                .rig
+                .iter()
+                .zip(&frame.detections.cameras)
+                .map(|((_, camera), detections)| CameraCounts {
+                    name: camera.name.clone(),
+                    width: camera.image_size.width,
+                    height: camera.image_size.height,
+                    blobs: detections.as_ref().map_or(0, |d| d.blobs.len()),
+                })
+                .collect();
+            live.take.push(sample(&frame), fps);
+            if let (Some(recorder), Some(set)) = (live.recorder.as_mut(), set.as_ref()) {
+                recorder.push(set, &positions);
+            }
+        }
+        if studio.frames().receiver_count() > 0 {
+            let fps_now = studio.live().fps();
+            let message = live_message(config, &frame, &images, fps_now);
+            studio.frames().send_replace(Some(message));
+        }
+        if studio.live().controls.generation != controls.generation {
+            return Ended::Restart;
+        }
+    }
+    Ended::Restart
+}

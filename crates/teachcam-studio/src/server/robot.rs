@@ -1,0 +1,315 @@
+//! The take on a robot: the library's robot check (reach, joint limits, speeds, a suggested
+//! work object), the arm's links along the checked joint path for the 3-D view, and the
+//! program as RAPID, KRL or URScript (the library's writers, as `teachcam export` uses them).
+//!
+//! The path is the take's tip trajectory, outliers dropped and smoothed by the zero-phase
+//! low-pass at the review's cut-off (runs too short for the filter become gaps).
+
+use axum::extract::{Path, Query, State};
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
+use serde_json::{Value, json};
+use teachcam::geometry::{Pose, parse_pose};
+use teachcam::robot::check::{CheckConfig, CheckReport, Suggestion, check_path};
+use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
+use teachcam::robot::kinematics::{Maker, Robot, link_points};
+use teachcam::robot::krl::{krl_name_problem, krl_program};
+use teachcam::robot::program::build_program;
+use teachcam::robot::rapid::{RapidConfig, rapid_module};
+use teachcam::robot::simplify::SimplifyConfig;
+use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
+use teachcam::robot::{Cell, pose_text, tcp_targets};
+use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, smooth};
+use teachcam::trajectory::Trajectory;
+
+use super::Studio;
+use super::security::ApiError;
+
+/// The cut-off used when the page gives none: the paper's 10 Hz.
+pub const DEFAULT_CUTOFF_HZ: f64 = 10.0;
+
+/// The most frames of the joint path sent for the 3-D view (the check covers them all).
+const MAX_PATH_FRAMES: usize = 600;
+
+/// The query of `/api/robot` and `/api/export/...`.
+#[derive(Debug, Default, serde::Deserialize)]
+pub struct RobotQuery {
+    /// `irb120`, `kr6-r700`, `kr6-r900`, `ur5e`, `ur10e`.
+    robot: Option<String>,
+    /// The work object in the robot's base, `x,y,z,qw,qx,qy,qz`.
+    wobj: Option<String>,
+    /// The TCP in the maker's flange frame, `x,y,z,qw,qx,qy,qz`.
+    tcp: Option<String>,
+    /// The smoothing cut-off, Hz.
+    cutoff_hz: Option<String>,
+    /// `true`: write the program even when the check fails.
+    force: Option<String>,
+    /// The token, when given in the query (checked by the guard).
+    #[serde(rename = "token")]
+    _token: Option<String>,
+}
+
+/// A request resolved: the robot, the cell, the check.
+struct Checked {
+    robot: Robot,
+    cell: Cell,
+    report: CheckReport,
+    gaps: usize,
+    cutoff_hz: f64,
+}
+
+/// A cut-off from the query, checked.
+pub fn cutoff(text: Option<&str>) -> Result<f64, ApiError> {
+    let Some(text) = text else {
+        return Ok(DEFAULT_CUTOFF_HZ);
+    };
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|c| c.is_finite() && *c > 0.0)
+        .ok_or_else(|| {
+            ApiError::bad_request(format!("cutoff_hz {text:?}: expected a positive number of Hz"))
+        })
+}
+
+/// The take smoothed at `cutoff_hz` (outliers dropped first).
+pub fn smoothed_take(studio: &Studio, cutoff_hz: f64) -> Result<Trajectory, ApiError> {
+    let mut take = studio.live().take.trajectory();
+    if take.samples.iter().all(|s| s.pose.is_none()) {
+        return Err(ApiError::conflict(
+            "the take has no pose yet: let the source run, or record one",
+        ));
+    }
+    take.drop_outliers();
+    let config = SmoothConfig {
+        method: Method::Lowpass {
+            cutoff_hz,
+            order: 2,
+            convention: CutoffConvention::SinglePass,
+        },
+        short_runs: ShortRuns::Gap,
+        ..SmoothConfig::default()
+    };
+    smooth(&take, &config).map_err(|e| ApiError::unprocessable(format!("smoothing: {e}")))
+}
+
+fn pose_field(query: Option<&str>, field: &str) -> Result<Pose, ApiError> {
+    let text = query.unwrap_or("0,0,0,1,0,0,0");
+    parse_pose(text).map_err(|e| ApiError::bad_request(format!("{field} {text:?}: {e}")))
+}
+
+fn check(studio: &Studio, query: &RobotQuery) -> Result<Checked, ApiError> {
+    let name = query.robot.as_deref().unwrap_or("irb120");
+    let robot = Robot::by_name(name).ok_or_else(|| {
+        ApiError::bad_request(format!(
+            "robot {name:?}: unknown (known: {})",
+            KNOWN_ROBOTS.join(", ")
+        ))
+    })?;
+    let cell = Cell {
+        base_from_wobj: pose_field(query.wobj.as_deref(), "wobj")?,
+        flange_from_tcp: pose_field(query.tcp.as_deref(), "tcp")?,
+    };
+    let cutoff_hz = cutoff(query.cutoff_hz.as_deref())?;
+    let trajectory = smoothed_take(studio, cutoff_hz)?;
+    let targets = tcp_targets(&trajectory, &studio.config().tool.tool_from_tcp.rotation);
+    if targets.is_empty() {
+        return Err(ApiError::unprocessable(
+            "no frame of the smoothed take has a pose (runs too short for the filter)",
+        ));
+    }
+    let report = check_path(&robot, &cell, &targets, &CheckConfig::default());
+    Ok(Checked {
+        gaps: trajectory.len() - targets.len(),
+        robot,
+        cell,
+        report,
+        cutoff_hz,
+    })
+}
+
+fn point(p: &teachcam::geometry::Point3) -> [f64; 3] {
+    [
+        (p.x * 100.0).round() / 100.0,
+        (p.y * 100.0).round() / 100.0,
+        (p.z * 100.0).round() / 100.0,
+    ]
+}
+
+/// `GET /api/robot`: the check, the limits and margins, the suggestion, the joint path.
+pub async fn robot(
+    State(studio): State<Studio>,
+    Query(query): Query<RobotQuery>,
+) -> Result<axum::Json<Value>, ApiError> {
+    let checked = tokio::task::spawn_blocking(move || check(&studio, &query))
+        .await
+        .map_err(|e| ApiError::internal(e.to_string()))??;
+    let Checked {
+        robot,
+        cell,
+        report,
+        gaps,
+        cutoff_hz,
+    } = &checked;
+    let limits: Vec<Value> = robot
+        .limits
+        .iter()
+        .zip(&report.peak_joint_speed)
+        .map(|(l, peak)| {
+            json!({
+                "min_deg": l.min.to_degrees(),
+                "max_deg": l.max.to_degrees(),
+                "max_speed_deg_s": l.max_speed.to_degrees(),
+                "peak_speed_deg_s": peak.to_degrees(),
+                "speed_margin": 1.0 - peak / l.max_speed,
+            })
+        })
+        .collect();
+    let suggestions: Vec<Value> = report
+        .suggestions
+        .iter()
+        .map(|s| match s {
+            Suggestion::UseWorkObject { base_from_wobj } => {
+                json!({"text": s.to_string(), "wobj": pose_text(base_from_wobj)})
+            }
+            Suggestion::SlowDown { factor } => json!({"text": s.to_string(), "slow_down": factor}),
+        })
+        .collect();
+    let step = report.frames.len().div_ceil(MAX_PATH_FRAMES).max(1);
+    let path: Vec<Value> = report
+        .frames
+        .iter()
+        .step_by(step)
+        .map(|f| {
+            let tcp = cell.base_from_wobj * f.target.wobj_from_tcp;
+            let tcp_in_base = tcp.translation.vector;
+            json!({
+                "frame": f.target.frame.0,
+                "time_s": f.target.time_s,
+                "ok": f.passes(),
+                "issues": f.issues.iter().filter(|i| i.is_failure()).map(ToString::to_string).collect::<Vec<_>>(),
+                "joints_deg": f.joints.map(|j| j.to_degrees()),
+                "links_mm": f.joints.map(|j| link_points(robot, &j).iter().map(point).collect::<Vec<_>>()),
+                "tcp_mm": [tcp_in_base.x, tcp_in_base.y, tcp_in_base.z],
+            })
+        })
+        .collect();
+    let wobj = cell.base_from_wobj;
+    let q = wobj.rotation.quaternion();
+    Ok(axum::Json(json!({
+        "robot": robot.name,
+        "maker": robot.maker.label(),
+        "cutoff_hz": cutoff_hz,
+        "passes": report.passes(),
+        "frames": report.frames.len(),
+        "gaps": gaps,
+        "unreachable": report.unreachable_count(),
+        "failing": report.failing().count(),
+        "near_singular": report.near_singular_count(),
+        "peak_speed_ratio": report.peak_speed_ratio,
+        "limits": limits,
+        "suggestions": suggestions,
+        "wobj": pose_text(&wobj),
+        "wobj_frame": {"position_mm": [wobj.translation.x, wobj.translation.y, wobj.translation.z], "quaternion": [q.w, q.i, q.j, q.k]},
+        "tcp": pose_text(&cell.flange_from_tcp),
+        "path": path,
+    })))
+}
+
+/// The program dialects the studio downloads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Dialect {
+    Rapid,
+    KrlSrc,
+    KrlDat,
+    UrScript,
+}
+
+impl Dialect {
+    fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "rapid" => Some(Self::Rapid),
+            "krl" | "krl-src" => Some(Self::KrlSrc),
+            "krl-dat" => Some(Self::KrlDat),
+            "urscript" => Some(Self::UrScript),
+            _ => None,
+        }
+    }
+
+    /// The maker whose robots run it, and the file's extension.
+    fn maker_and_extension(self) -> (Maker, &'static str) {
+        match self {
+            Self::Rapid => (Maker::Abb, "mod"),
+            Self::KrlSrc => (Maker::Kuka, "src"),
+            Self::KrlDat => (Maker::Kuka, "dat"),
+            Self::UrScript => (Maker::UniversalRobots, "script"),
+        }
+    }
+}
+
+/// The program's name (a KRL DEF name: the download's file name).
+const PROGRAM_NAME: &str = "teachcam_studio";
+
+/// `GET /api/export/{dialect}`: the program for the take, as a download.
+pub async fn export(
+    State(studio): State<Studio>,
+    Path(dialect): Path<String>,
+    Query(query): Query<RobotQuery>,
+) -> Result<Response, ApiError> {
+    let dialect = Dialect::from_name(&dialect).ok_or_else(|| {
+        ApiError::new(
+            axum::http::StatusCode::NOT_FOUND,
+            format!("/api/export/{dialect}: no such dialect (rapid, krl, krl-dat, urscript)"),
+        )
+    })?;
+    let force = matches!(query.force.as_deref(), Some("true" | "1"));
+    let (text, file) = tokio::task::spawn_blocking(move || -> Result<_, ApiError> {
+        let checked = check(&studio, &query)?;
+        let (maker, extension) = dialect.maker_and_extension();
+        if checked.robot.maker != maker {
+            return Err(ApiError::unprocessable(format!(
+                "{extension} programs drive {} robots, and the {} is a {} robot",
+                maker.label(),
+                checked.robot.name,
+                checked.robot.maker.label()
+            )));
+        }
+        if !checked.report.passes() && !force {
+            return Err(ApiError::unprocessable(format!(
+                "{} of {} frames fail on the {}; no program (force=true writes it anyway)",
+                checked.report.failing().count(),
+                checked.report.frames.len(),
+                checked.robot.name
+            )));
+        }
+        if let Some(problem) = krl_name_problem(PROGRAM_NAME) {
+            return Err(ApiError::internal(problem));
+        }
+        let program = build_program(
+            PROGRAM_NAME,
+            &checked.cell,
+            &checked.report,
+            &SimplifyConfig::default(),
+        );
+        let text = match dialect {
+            Dialect::Rapid => rapid_module(&program, &RapidConfig::default()),
+            Dialect::KrlSrc => krl_program(&program).src,
+            Dialect::KrlDat => krl_program(&program).dat,
+            Dialect::UrScript => urscript_program(&program, &UrScriptConfig::default()),
+        };
+        Ok((text, format!("{PROGRAM_NAME}.{extension}")))
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))??;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "text/plain; charset=utf-8".to_string()),
+            (
+                header::CONTENT_DISPOSITION,
+                format!("attachment; filename=\"{file}\""),
+            ),
+        ],
+        text,
+    )
+        .into_response())
+}
