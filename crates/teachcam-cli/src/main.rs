@@ -149,7 +149,10 @@ fn main() -> ExitCode {
         Err(error) => return usage_error(&error),
     };
     announce::set_quiet(cli.quiet);
-    if matches!(cli.command, Command::Record(_) | Command::Live(_) | Command::Studio(_)) {
+    if matches!(
+        cli.command,
+        Command::Record(_) | Command::Live(_) | Command::Studio(_)
+    ) {
         // These end on Ctrl-C by finishing the frame set in hand (a valid recording, a
         // summary), so their handler comes first.
         cmd::record::catch_stop();

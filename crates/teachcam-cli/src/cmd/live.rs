@@ -116,7 +116,10 @@ pub fn rig_and_tool(
         (SourceSpec::Sim(scenario), rig, tool) => {
             let scene = teachcam::source::sim::scene(*scenario, sim);
             (
-                rig.map(read_rig).transpose().rejected()?.unwrap_or(scene.rig),
+                rig.map(read_rig)
+                    .transpose()
+                    .rejected()?
+                    .unwrap_or(scene.rig),
                 tool.map(read_tool)
                     .transpose()
                     .rejected()?

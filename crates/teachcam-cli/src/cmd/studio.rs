@@ -98,7 +98,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .clone()
             .or_else(|| folder.as_ref().map(|f| f.join(name)))
     };
-    let (rig_path, tool_path) = (beside("rig.json", &args.rig), beside("tool.json", &args.tool));
+    let (rig_path, tool_path) = (
+        beside("rig.json", &args.rig),
+        beside("tool.json", &args.tool),
+    );
     let (rig, tool) = rig_and_tool(
         &source,
         rig_path.as_deref(),
@@ -154,6 +157,8 @@ fn open_browser(url: &str) {
         .spawn()
         .is_err()
     {
-        crate::announce::warn(&format!("cannot open a browser ({opener} not found): open {url}"));
+        crate::announce::warn(&format!(
+            "cannot open a browser ({opener} not found): open {url}"
+        ));
     }
 }

@@ -32,9 +32,15 @@ use crate::assets;
 /// The studio's routes over `studio`.
 pub fn router(studio: Studio) -> Router {
     Router::new()
-        .route("/", get(|| async { page(assets::STUDIO_HTML, "text/html; charset=utf-8") }))
+        .route(
+            "/",
+            get(|| async { page(assets::STUDIO_HTML, "text/html; charset=utf-8") }),
+        )
         .route("/studio.js", get(|| async { page(assets::STUDIO_JS, JS) }))
-        .route("/studio.css", get(|| async { page(assets::STUDIO_CSS, CSS) }))
+        .route(
+            "/studio.css",
+            get(|| async { page(assets::STUDIO_CSS, CSS) }),
+        )
         .route(
             "/vendor/three/three.module.js",
             get(|| async { page(assets::THREE_MODULE_JS, JS) }),
@@ -85,7 +91,10 @@ fn page(body: &'static str, content_type: &'static str) -> Response {
 }
 
 async fn not_found(uri: axum::http::Uri) -> ApiError {
-    ApiError::new(StatusCode::NOT_FOUND, format!("{}: no such page or API", uri.path()))
+    ApiError::new(
+        StatusCode::NOT_FOUND,
+        format!("{}: no such page or API", uri.path()),
+    )
 }
 
 /// Turns the errors axum answers itself (413 body too large, 405, a bad query) into the
@@ -225,7 +234,10 @@ mod serde_with_null {
     }
 }
 
-async fn controls(State(studio): State<Studio>, body: Bytes) -> Result<axum::Json<Value>, ApiError> {
+async fn controls(
+    State(studio): State<Studio>,
+    body: Bytes,
+) -> Result<axum::Json<Value>, ApiError> {
     let body: ControlsBody = parse_body(&body)?;
     let threshold = match &body.threshold {
         None => None,

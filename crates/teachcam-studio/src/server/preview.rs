@@ -42,10 +42,20 @@ pub struct Preview {
 #[must_use]
 pub fn preview(frame: &GrayFrame, max_width: u32) -> Preview {
     match frame {
-        GrayFrame::Eight(image) => shrink(image.width(), image.height(), image.as_raw(), max_width, |v| v),
-        GrayFrame::Sixteen(image) => shrink(image.width(), image.height(), image.as_raw(), max_width, |v: u16| {
-            (v >> 8) as u8
-        }),
+        GrayFrame::Eight(image) => shrink(
+            image.width(),
+            image.height(),
+            image.as_raw(),
+            max_width,
+            |v| v,
+        ),
+        GrayFrame::Sixteen(image) => shrink(
+            image.width(),
+            image.height(),
+            image.as_raw(),
+            max_width,
+            |v: u16| (v >> 8) as u8,
+        ),
     }
 }
 
@@ -118,11 +128,8 @@ pub fn live_message(
 ) -> Bytes {
     let mut pixels: Vec<u8> = Vec::new();
     let mut cameras = Vec::new();
-    for (((id, camera), detections), image) in config
-        .rig
-        .iter()
-        .zip(&frame.detections.cameras)
-        .zip(images)
+    for (((id, camera), detections), image) in
+        config.rig.iter().zip(&frame.detections.cameras).zip(images)
     {
         let shrunk = image
             .and_then(|f| f.decode(&camera.name, None).ok())
@@ -130,7 +137,13 @@ pub fn live_message(
         let blobs: Vec<[f64; 3]> = detections
             .iter()
             .flat_map(|d| &d.blobs)
-            .map(|b| [round(b.center.x, 2), round(b.center.y, 2), round(b.radius_px, 2)])
+            .map(|b| {
+                [
+                    round(b.center.x, 2),
+                    round(b.center.y, 2),
+                    round(b.radius_px, 2),
+                ]
+            })
             .collect();
         let labels: Vec<Value> = frame
             .track

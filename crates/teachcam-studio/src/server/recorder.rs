@@ -168,12 +168,8 @@ fn write(
     let mut origin_s = None;
     let mut written = 0usize;
     while let Ok(frames) = sets.recv() {
-        let origin = *origin_s.get_or_insert_with(|| {
-            frames
-                .iter()
-                .map(|(_, t)| *t)
-                .fold(f64::INFINITY, f64::min)
-        });
+        let origin = *origin_s
+            .get_or_insert_with(|| frames.iter().map(|(_, t)| *t).fold(f64::INFINITY, f64::min));
         let file = frame_file_name(written);
         std::thread::scope(|scope| {
             let jobs: Vec<_> = frames

@@ -68,7 +68,9 @@ pub fn cutoff(text: Option<&str>) -> Result<f64, ApiError> {
         .ok()
         .filter(|c| c.is_finite() && *c > 0.0)
         .ok_or_else(|| {
-            ApiError::bad_request(format!("cutoff_hz {text:?}: expected a positive number of Hz"))
+            ApiError::bad_request(format!(
+                "cutoff_hz {text:?}: expected a positive number of Hz"
+            ))
         })
 }
 
@@ -303,7 +305,10 @@ pub async fn export(
     .map_err(|e| ApiError::internal(e.to_string()))??;
     Ok((
         [
-            (header::CONTENT_TYPE, "text/plain; charset=utf-8".to_string()),
+            (
+                header::CONTENT_TYPE,
+                "text/plain; charset=utf-8".to_string(),
+            ),
             (
                 header::CONTENT_DISPOSITION,
                 format!("attachment; filename=\"{file}\""),

@@ -134,7 +134,13 @@ fn is_loopback_host(host: &str) -> bool {
 }
 
 /// Why a request is refused, if it is.
-fn refusal(studio: &Studio, method: &Method, path: &str, headers: &HeaderMap, query: Option<&str>) -> Option<String> {
+fn refusal(
+    studio: &Studio,
+    method: &Method,
+    path: &str,
+    headers: &HeaderMap,
+    query: Option<&str>,
+) -> Option<String> {
     let host = headers
         .get(header::HOST)
         .and_then(|v| v.to_str().ok())
@@ -190,10 +196,21 @@ mod tests {
 
     #[test]
     fn loopback_names_are_told_from_others() {
-        for host in ["127.0.0.1:8080", "localhost:1", "[::1]:80", "127.0.0.2", "LOCALHOST"] {
+        for host in [
+            "127.0.0.1:8080",
+            "localhost:1",
+            "[::1]:80",
+            "127.0.0.2",
+            "LOCALHOST",
+        ] {
             assert!(is_loopback_host(host), "{host}");
         }
-        for host in ["evil.example:8080", "192.168.1.2:80", "", "[2001:db8::1]:80"] {
+        for host in [
+            "evil.example:8080",
+            "192.168.1.2:80",
+            "",
+            "[2001:db8::1]:80",
+        ] {
             assert!(!is_loopback_host(host), "{host}");
         }
     }

@@ -77,14 +77,16 @@ impl Take {
         if self.frozen {
             return;
         }
-        if let Some((last_frame, last_time_s)) = self.samples.back().map(|s| (s.frame.0, s.time_s)) {
+        if let Some((last_frame, last_time_s)) = self.samples.back().map(|s| (s.frame.0, s.time_s))
+        {
             if sample.frame.0 <= last_frame {
                 // A new pass of a recording or a restarted source: a new take.
                 self.samples.clear();
             } else {
                 for missing in last_frame + 1..sample.frame.0 {
                     let time_s = last_time_s + (missing - last_frame) as f64 / fps;
-                    self.samples.push_back(Sample::gap(FrameIndex(missing), time_s));
+                    self.samples
+                        .push_back(Sample::gap(FrameIndex(missing), time_s));
                 }
             }
         }
@@ -97,7 +99,10 @@ impl Take {
     /// The take as a trajectory whose frames count from 0 and whose time starts at 0.
     #[must_use]
     pub fn trajectory(&self) -> Trajectory {
-        let first = self.samples.front().map_or((0, 0.0), |s| (s.frame.0, s.time_s));
+        let first = self
+            .samples
+            .front()
+            .map_or((0, 0.0), |s| (s.frame.0, s.time_s));
         Trajectory {
             samples: self
                 .samples
@@ -164,9 +169,7 @@ impl Live {
     /// Notes a frame tracked now.
     pub fn tick(&mut self, now: Instant) {
         self.recent.push_back(now);
-        while self.recent.len() > 2
-            && now.duration_since(self.recent[0]).as_secs_f64() > 1.0
-        {
+        while self.recent.len() > 2 && now.duration_since(self.recent[0]).as_secs_f64() > 1.0 {
             self.recent.pop_front();
         }
     }

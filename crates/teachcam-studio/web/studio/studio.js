@@ -1,0 +1,666 @@
+// teachcam studio: the page app. Everything it shows is computed by the server (the library's
+// pipeline, check and report model); this script draws it. For tests it keeps its counters in
+// `window.teachcamStudio` and mirrors the main ones in data attributes.
+import * as THREE from "three";
+import { OrbitControls } from "three/OrbitControls";
+
+const token = new URLSearchParams(location.search).get("token") || "";
+const studio = (window.teachcamStudio = {
+  framesDrawn: 0, // live frames drawn on the camera canvases
+  fps: 0, // frames drawn in the last second
+  lastFrame: null, // the last live frame's header
+  sceneRenders: 0, // 3-D renders
+  toolVisible: false, // the tool has a pose and projects inside the 3-D view
+  toolPixelSeen: false, // a pixel of the tool's colour was read back at its place in the 3-D canvas
+  lostMarked: 0, // lost frames marked on the trail
+  robot: null, // the last robot check
+  armFrame: 0, // the frame of the checked path the arm shows
+  reviewDraws: 0, // review figures drawn
+  reviewCutoffHz: null,
+  reviewSignature: null, // a digest of the plotted review data (changes when the curve does)
+  status: null, // the last /api/status
+  frameMs: 0, // smoothed time to draw a live frame on the camera canvases, ms
+  renderMs: 0, // smoothed time of a 3-D render, ms
+});
+
+const $ = (id) => document.getElementById(id);
+
+function showError(message) {
+  $("error").textContent = message || "";
+}
+
+async function api(path, options = {}) {
+  const headers = { "x-teachcam-token": token };
+  if (options.body !== undefined) headers["content-type"] = "application/json";
+  const response = await fetch(path, { ...options, headers });
+  const text = await response.text();
+  let body;
+  try {
+    body = JSON.parse(text);
+  } catch {
+    body = { error: text };
+  }
+  if (!response.ok) throw new Error(body.error || response.statusText);
+  return body;
+}
+
+function post(path, body) {
+  return api(path, { method: "POST", body: JSON.stringify(body ?? {}) });
+}
+
+// ---- tabs ----
+for (const button of document.querySelectorAll("nav button")) {
+  button.addEventListener("click", () => {
+    for (const b of document.querySelectorAll("nav button")) b.classList.toggle("active", b === button);
+    for (const tab of document.querySelectorAll(".tab")) tab.classList.toggle("active", tab.id === `tab-${button.dataset.tab}`);
+    if (button.dataset.tab === "live") resizeScene();
+    if (button.dataset.tab === "review") requestReview();
+  });
+}
+
+// ---- cameras ----
+const cameraViews = [];
+
+function cameraView(index, camera) {
+  let view = cameraViews[index];
+  if (view && view.canvas.width === camera.width && view.canvas.height === camera.height) return view;
+  if (!view) {
+    const card = document.createElement("div");
+    card.className = "camera";
+    const canvas = document.createElement("canvas");
+    const caption = document.createElement("div");
+    caption.className = "caption";
+    card.append(canvas, caption);
+    $("cameras").append(card);
+    view = cameraViews[index] = { card, canvas, caption, context: canvas.getContext("2d", { willReadFrequently: true }), image: null };
+  }
+  view.canvas.width = Math.max(camera.width, 1);
+  view.canvas.height = Math.max(camera.height, 1);
+  view.canvas.dataset.camera = camera.name;
+  view.image = view.context.createImageData(view.canvas.width, view.canvas.height);
+  return view;
+}
+
+function drawCamera(index, camera, pixels) {
+  const view = cameraView(index, camera);
+  const { context, image } = view;
+  const rgba = image.data;
+  for (let i = 0, j = 0; i < pixels.length; i += 1, j += 4) {
+    const v = pixels[i];
+    rgba[j] = v;
+    rgba[j + 1] = v;
+    rgba[j + 2] = v;
+    rgba[j + 3] = 255;
+  }
+  context.putImageData(image, 0, 0);
+  const s = camera.scale || 1;
+  context.lineWidth = 1.5;
+  context.strokeStyle = "#3fbf6f";
+  for (const [x, y, r] of camera.blobs) {
+    context.beginPath();
+    // Pixel centres: full-size (x, y) lies at ((x + 0.5) / s) in the preview's coordinates.
+    context.arc((x + 0.5) / s, (y + 0.5) / s, Math.max(r / s + 2, 3), 0, 2 * Math.PI);
+    context.stroke();
+  }
+  context.fillStyle = "#ff8800";
+  context.font = "11px system-ui, sans-serif";
+  for (const [x, y, marker] of camera.labels) {
+    context.fillText(`m${marker}`, (x + 0.5) / s + 6, (y + 0.5) / s - 6);
+  }
+  view.caption.textContent = `${camera.name}: ${camera.blobs.length} blobs, ${camera.labels.length} labelled`;
+  view.card.dataset.blobs = camera.blobs.length;
+}
+
+const drawTimes = [];
+
+function onFrame(buffer) {
+  const began = performance.now();
+  const length = new DataView(buffer).getUint32(0, true);
+  const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
+  let offset = 4 + length;
+  header.cameras.forEach((camera, index) => {
+    const size = camera.width * camera.height;
+    drawCamera(index, camera, new Uint8Array(buffer, offset, size));
+    offset += size;
+  });
+  updateTool(header);
+  needsRender = true;
+  studio.lastFrame = header;
+  studio.framesDrawn += 1;
+  const now = performance.now();
+  drawTimes.push(now);
+  while (drawTimes.length && now - drawTimes[0] > 1000) drawTimes.shift();
+  studio.fps = drawTimes.length;
+  const status = $("pose-status");
+  status.textContent = header.status;
+  status.dataset.status = header.status;
+  status.title = header.reason || "";
+  studio.frameMs = 0.9 * studio.frameMs + 0.1 * (performance.now() - began);
+}
+
+setInterval(() => {
+  const now = performance.now();
+  while (drawTimes.length && now - drawTimes[0] > 1000) drawTimes.shift();
+  studio.fps = drawTimes.length;
+  $("fps").textContent = studio.fps;
+  $("fps").dataset.fps = studio.fps;
+  $("frames").textContent = studio.framesDrawn;
+  $("frames").dataset.frames = studio.framesDrawn;
+}, 250);
+
+function connect() {
+  const scheme = location.protocol === "https:" ? "wss" : "ws";
+  const socket = new WebSocket(`${scheme}://${location.host}/api/live?token=${encodeURIComponent(token)}`);
+  socket.binaryType = "arraybuffer";
+  socket.onmessage = (event) => onFrame(event.data);
+  socket.onclose = () => setTimeout(connect, 1000);
+}
+
+// ---- controls ----
+$("threshold-auto").addEventListener("change", async () => {
+  $("threshold").disabled = $("threshold-auto").checked;
+  await setControls({ threshold: $("threshold-auto").checked ? "auto" : Number($("threshold").value) });
+});
+$("threshold").addEventListener("change", () => setControls({ threshold: Number($("threshold").value) }));
+$("exposure").addEventListener("input", () => {
+  const unit = studio.status?.exposure?.unit;
+  $("exposure-value").textContent = unit === "ms" ? `${$("exposure").value} ms` : `${Number($("exposure").value).toFixed(2)}×`;
+});
+$("exposure").addEventListener("change", () => setControls({ exposure: Number($("exposure").value) }));
+
+async function setControls(body) {
+  try {
+    await post("/api/controls", body);
+    showError("");
+  } catch (error) {
+    showError(error.message);
+  }
+}
+
+// ---- record / stop ----
+$("record").addEventListener("click", async () => {
+  try {
+    if (studio.status?.recording) {
+      const done = await post("/api/stop");
+      $("record-state").textContent = `wrote ${done.folder}: ${done.frames} frames (${done.dropped} sets dropped)`;
+    } else {
+      const started = await post("/api/record");
+      $("record-state").textContent = `recording into ${started.folder}`;
+    }
+    showError("");
+    await pollStatus();
+  } catch (error) {
+    showError(error.message);
+  }
+});
+
+let exposureConfigured = false;
+
+async function pollStatus() {
+  try {
+    const status = await api("/api/status");
+    studio.status = status;
+    $("source").textContent = status.source;
+    $("server-fps").textContent = status.fps.toFixed(1);
+    const record = $("record");
+    record.textContent = status.recording ? "■ Stop" : "● Record";
+    record.classList.toggle("recording", status.recording);
+    if (status.recording) $("record-state").textContent = `recording into ${status.recording_folder}: ${status.recording_frames} frames`;
+    showError(status.error || "");
+    if (!exposureConfigured) {
+      exposureConfigured = true;
+      const exposure = status.exposure;
+      const slider = $("exposure");
+      if (!exposure.supported) {
+        slider.disabled = true;
+        $("exposure-label").title = exposure.reason;
+        $("exposure-value").textContent = "fixed";
+      } else if (exposure.unit === "ms") {
+        slider.min = 0.1;
+        slider.max = 50;
+        slider.step = 0.1;
+        slider.value = exposure.value ?? 5;
+        $("exposure-value").textContent = exposure.value ? `${exposure.value} ms` : "driver's";
+      } else {
+        slider.value = exposure.value;
+      }
+    }
+  } catch (error) {
+    showError(error.message);
+  }
+}
+
+// ---- 3-D view ----
+const sceneBox = $("scene");
+// No multisampling: in a software renderer (a headless browser, a machine without a GPU) it
+// costs more than the rest of the page.
+const renderer = new THREE.WebGLRenderer({ antialias: false });
+renderer.setPixelRatio(1);
+sceneBox.append(renderer.domElement);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x0c0e11);
+const view3 = new THREE.PerspectiveCamera(45, 1, 1, 100000);
+const orbit = new OrbitControls(view3, renderer.domElement);
+orbit.enableDamping = false;
+// The scene is drawn when something in it changed (a frame, the view, the arm), not at the
+// display's rate: a software renderer would otherwise take the CPU the live view needs.
+let needsRender = true;
+orbit.addEventListener("change", () => {
+  needsRender = true;
+});
+scene.add(new THREE.AmbientLight(0xffffff, 0.6));
+const sun = new THREE.DirectionalLight(0xffffff, 0.9);
+sun.position.set(1000, 2000, 3000);
+scene.add(sun);
+
+const TOOL_COLOUR = 0xff8800;
+const tool = new THREE.Group();
+tool.visible = false;
+scene.add(tool);
+const toolMarkers = [];
+const TRAIL = 900;
+const trailPositions = new Float32Array(3 * TRAIL);
+const trailGeometry = new THREE.BufferGeometry();
+trailGeometry.setAttribute("position", new THREE.BufferAttribute(trailPositions, 3));
+trailGeometry.setDrawRange(0, 0);
+const trail = new THREE.Line(trailGeometry, new THREE.LineBasicMaterial({ color: 0x4fc3f7 }));
+trail.frustumCulled = false;
+scene.add(trail);
+let trailCount = 0;
+const LOST = 300;
+const lostPositions = new Float32Array(3 * LOST);
+const lostGeometry = new THREE.BufferGeometry();
+lostGeometry.setAttribute("position", new THREE.BufferAttribute(lostPositions, 3));
+lostGeometry.setDrawRange(0, 0);
+const lost = new THREE.Points(lostGeometry, new THREE.PointsMaterial({ color: 0xe5484d, size: 7, sizeAttenuation: false }));
+lost.frustumCulled = false;
+scene.add(lost);
+let lostCount = 0;
+let lastTip = null;
+let lastFrameIndex = null;
+let framed = false;
+
+function pushRing(positions, count, capacity, point, geometry) {
+  if (count < capacity) {
+    positions.set(point, 3 * count);
+    count += 1;
+  } else {
+    positions.copyWithin(0, 3);
+    positions.set(point, 3 * (capacity - 1));
+  }
+  geometry.attributes.position.needsUpdate = true;
+  geometry.setDrawRange(0, count);
+  return count;
+}
+
+function updateTool(frame) {
+  const restarted = lastFrameIndex !== null && frame.frame < lastFrameIndex;
+  lastFrameIndex = frame.frame;
+  if (restarted) {
+    trailCount = 0;
+    trailGeometry.setDrawRange(0, 0);
+  }
+  if (frame.tool) {
+    const [x, y, z] = frame.tool.position_mm;
+    const [qw, qx, qy, qz] = frame.tool.quaternion;
+    tool.position.set(x, y, z);
+    tool.quaternion.set(qx, qy, qz, qw);
+    tool.visible = true;
+    lastTip = frame.tool.tip_mm;
+    trailCount = pushRing(trailPositions, trailCount, TRAIL, lastTip, trailGeometry);
+    if (!framed) {
+      framed = true;
+      frameView(new THREE.Vector3(x, y, z));
+    }
+  } else {
+    tool.visible = false;
+    if (lastTip) {
+      lostCount = pushRing(lostPositions, lostCount, LOST, lastTip, lostGeometry);
+      studio.lostMarked += 1;
+    }
+  }
+}
+
+let sceneInfo = null;
+
+function frameView(target) {
+  // Look at the tool from beyond the rig's mean camera, close enough to see its markers.
+  const centre = new THREE.Vector3();
+  const up = new THREE.Vector3();
+  for (const camera of sceneInfo?.cameras ?? []) {
+    centre.add(new THREE.Vector3(...camera.position_mm));
+    const r = camera.rotation;
+    up.sub(new THREE.Vector3(r[0][1], r[1][1], r[2][1]));
+  }
+  if (!sceneInfo || sceneInfo.cameras.length === 0) centre.set(0, -1000, 1000);
+  else centre.divideScalar(sceneInfo.cameras.length);
+  if (up.lengthSq() > 0) view3.up.copy(up.normalize());
+  const direction = centre.clone().sub(target);
+  if (direction.lengthSq() === 0) direction.set(0, 0, 1);
+  view3.position.copy(target.clone().add(direction.normalize().multiplyScalar(700)));
+  orbit.target.copy(target);
+  orbit.update();
+}
+
+async function loadScene() {
+  sceneInfo = await api("/api/scene");
+  const palette = [0x7986cb, 0x4db6ac, 0xffd54f, 0xba68c8, 0x90a4ae, 0xf06292];
+  sceneInfo.cameras.forEach((camera, i) => {
+    const depth = 400;
+    const r = camera.rotation;
+    const position = new THREE.Vector3(...camera.position_mm);
+    const corner = (u, v) => {
+      const x = ((u - camera.cx) / camera.fx) * depth;
+      const y = ((v - camera.cy) / camera.fy) * depth;
+      const z = depth;
+      return new THREE.Vector3(
+        r[0][0] * x + r[0][1] * y + r[0][2] * z,
+        r[1][0] * x + r[1][1] * y + r[1][2] * z,
+        r[2][0] * x + r[2][1] * y + r[2][2] * z,
+      ).add(position);
+    };
+    const c = [corner(0, 0), corner(camera.width, 0), corner(camera.width, camera.height), corner(0, camera.height)];
+    const points = [];
+    for (let k = 0; k < 4; k += 1) points.push(position, c[k], c[k], c[(k + 1) % 4]);
+    const frustum = new THREE.LineSegments(
+      new THREE.BufferGeometry().setFromPoints(points),
+      new THREE.LineBasicMaterial({ color: palette[i % palette.length] }),
+    );
+    frustum.name = camera.name;
+    scene.add(frustum);
+  });
+  const wobj = new THREE.AxesHelper(100);
+  wobj.name = "wobj";
+  scene.add(wobj);
+  const markerMaterial = new THREE.MeshBasicMaterial({ color: TOOL_COLOUR });
+  const radius = sceneInfo.tool.marker_diameter_mm / 2;
+  const centroid = new THREE.Vector3();
+  for (const m of sceneInfo.tool.markers_mm) {
+    const sphere = new THREE.Mesh(new THREE.SphereGeometry(radius, 16, 12), markerMaterial);
+    sphere.position.set(...m);
+    tool.add(sphere);
+    toolMarkers.push(sphere);
+    centroid.add(sphere.position);
+  }
+  centroid.divideScalar(Math.max(sceneInfo.tool.markers_mm.length, 1));
+  const tip = new THREE.Vector3(...sceneInfo.tool.tip_mm);
+  const shaft = new THREE.Line(new THREE.BufferGeometry().setFromPoints([centroid, tip]), new THREE.LineBasicMaterial({ color: 0xffffff }));
+  tool.add(shaft);
+  for (const m of toolMarkers) tool.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints([m.position, centroid]), new THREE.LineBasicMaterial({ color: TOOL_COLOUR })));
+  const tipBall = new THREE.Mesh(new THREE.SphereGeometry(2.5, 12, 8), new THREE.MeshBasicMaterial({ color: 0xffffff }));
+  tipBall.position.copy(tip);
+  tool.add(tipBall);
+  if (!framed) frameView(new THREE.Vector3(0, 0, 0));
+}
+
+function resizeScene() {
+  const width = sceneBox.clientWidth || 640;
+  const height = sceneBox.clientHeight || 480;
+  renderer.setSize(width, height, false);
+  renderer.domElement.style.width = "100%";
+  renderer.domElement.style.height = "100%";
+  view3.aspect = width / height;
+  view3.updateProjectionMatrix();
+  needsRender = true;
+}
+window.addEventListener("resize", resizeScene);
+
+const probe = new Uint8Array(4 * 25);
+
+function checkToolOnScreen() {
+  // Is the tool inside the view, and is its colour in the canvas where it projects?
+  if (!tool.visible || toolMarkers.length === 0) {
+    studio.toolVisible = false;
+    sceneBox.dataset.toolVisible = "false";
+    return;
+  }
+  const canvas = renderer.domElement;
+  let seen = false;
+  let inside = false;
+  const gl = renderer.getContext();
+  for (const marker of toolMarkers) {
+    const p = marker.getWorldPosition(new THREE.Vector3()).project(view3);
+    if (Math.abs(p.x) > 1 || Math.abs(p.y) > 1 || p.z > 1) continue;
+    inside = true;
+    const px = Math.round(((p.x + 1) / 2) * canvas.width);
+    const py = Math.round(((p.y + 1) / 2) * canvas.height);
+    gl.readPixels(px - 2, py - 2, 5, 5, gl.RGBA, gl.UNSIGNED_BYTE, probe);
+    for (let k = 0; k < 25; k += 1) {
+      const [r, g, b] = [probe[4 * k], probe[4 * k + 1], probe[4 * k + 2]];
+      if (r > 200 && g > 90 && g < 180 && b < 70) seen = true;
+    }
+  }
+  studio.toolVisible = inside;
+  studio.toolPixelSeen = studio.toolPixelSeen || seen;
+  sceneBox.dataset.toolVisible = String(inside);
+  sceneBox.dataset.toolPixelSeen = String(studio.toolPixelSeen);
+}
+
+// ---- the robot arm ----
+const arm = new THREE.Group();
+arm.visible = false;
+scene.add(arm);
+const armMaterial = new THREE.MeshLambertMaterial({ color: 0xb0bec5 });
+const jointMaterial = new THREE.MeshLambertMaterial({ color: 0x546e7a });
+const armLinks = [];
+const armJoints = [];
+const armPath = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: 0x81c784 }));
+arm.add(armPath);
+let armPlaying = false;
+let armPlayStart = 0;
+
+function showRobot(result) {
+  studio.robot = result;
+  const frames = result.path.filter((f) => f.links_mm);
+  const [px, py, pz] = result.wobj_frame.position_mm;
+  const [qw, qx, qy, qz] = result.wobj_frame.quaternion;
+  // The arm's points are in its base; the scene is the work object's frame: wobj_from_base.
+  const baseFromWobj = new THREE.Matrix4().compose(new THREE.Vector3(px, py, pz), new THREE.Quaternion(qx, qy, qz, qw), new THREE.Vector3(1, 1, 1));
+  arm.matrixAutoUpdate = false;
+  arm.matrix.copy(baseFromWobj.clone().invert());
+  arm.matrixWorldNeedsUpdate = true;
+  if (armLinks.length === 0) {
+    for (let k = 0; k < 6; k += 1) {
+      const link = new THREE.Mesh(new THREE.CylinderGeometry(18, 18, 1, 12), armMaterial);
+      arm.add(link);
+      armLinks.push(link);
+    }
+    for (let k = 0; k < 7; k += 1) {
+      const joint = new THREE.Mesh(new THREE.SphereGeometry(24, 16, 12), jointMaterial);
+      arm.add(joint);
+      armJoints.push(joint);
+    }
+  }
+  armPath.geometry.setFromPoints(result.path.map((f) => new THREE.Vector3(...f.tcp_mm)));
+  const scrub = $("arm-scrub");
+  scrub.max = Math.max(frames.length - 1, 0);
+  scrub.value = 0;
+  $("arm-controls").hidden = frames.length === 0;
+  arm.visible = frames.length > 0;
+  studio.armFrames = frames;
+  showArmFrame(0);
+}
+
+function showArmFrame(index) {
+  const frames = studio.armFrames || [];
+  const frame = frames[index];
+  if (!frame) return;
+  studio.armFrame = index;
+  const points = frame.links_mm.map((p) => new THREE.Vector3(...p));
+  points.forEach((p, k) => armJoints[k].position.copy(p));
+  const yAxis = new THREE.Vector3(0, 1, 0);
+  for (let k = 0; k < 6; k += 1) {
+    const a = points[k];
+    const b = points[k + 1];
+    const d = b.clone().sub(a);
+    const length = d.length();
+    const link = armLinks[k];
+    link.visible = length > 1e-6;
+    link.position.copy(a.clone().add(b).multiplyScalar(0.5));
+    link.scale.set(1, Math.max(length, 1e-6), 1);
+    if (length > 1e-6) link.quaternion.setFromUnitVectors(yAxis, d.normalize());
+  }
+  $("arm-frame").textContent = `frame ${frame.frame} · t ${frame.time_s.toFixed(2)} s · joints ${frame.joints_deg.map((j) => j.toFixed(1)).join(", ")}°`;
+  $("arm-scrub").value = index;
+  needsRender = true;
+}
+
+$("arm-scrub").addEventListener("input", () => {
+  armPlaying = false;
+  $("arm-play").textContent = "▶ play";
+  showArmFrame(Number($("arm-scrub").value));
+});
+$("arm-play").addEventListener("click", () => {
+  armPlaying = !armPlaying;
+  $("arm-play").textContent = armPlaying ? "❚❚ pause" : "▶ play";
+  const frames = studio.armFrames || [];
+  const at = frames[studio.armFrame]?.time_s ?? 0;
+  armPlayStart = performance.now() - 1000 * at;
+});
+
+function stepArm() {
+  const frames = studio.armFrames || [];
+  if (!armPlaying || frames.length === 0) return;
+  const end = frames[frames.length - 1].time_s;
+  let t = (performance.now() - armPlayStart) / 1000;
+  if (t > end) {
+    armPlayStart = performance.now();
+    t = 0;
+  }
+  let index = studio.armFrame;
+  if (frames[index].time_s > t) index = 0;
+  while (index + 1 < frames.length && frames[index + 1].time_s <= t) index += 1;
+  if (index !== studio.armFrame) showArmFrame(index);
+}
+
+function render() {
+  stepArm();
+  if (needsRender) {
+    needsRender = false;
+    const began = performance.now();
+    renderer.render(scene, view3);
+    studio.renderMs = 0.9 * studio.renderMs + 0.1 * (performance.now() - began);
+    studio.sceneRenders += 1;
+    if (studio.sceneRenders % 10 === 0) checkToolOnScreen();
+  }
+  requestAnimationFrame(render);
+}
+
+// ---- robot tab ----
+function robotQuery() {
+  const params = new URLSearchParams({
+    robot: $("robot-name").value,
+    wobj: $("wobj").value.trim(),
+    tcp: $("tcp").value.trim(),
+    cutoff_hz: $("cutoff").value,
+    token,
+  });
+  return params.toString();
+}
+
+const exportLinks = { rapid: "export-rapid", krl: "export-krl", "krl-dat": "export-krl-dat", urscript: "export-urscript" };
+const exportMaker = { rapid: "ABB", krl: "KUKA", "krl-dat": "KUKA", urscript: "Universal Robots" };
+
+function setExports(result) {
+  for (const [dialect, id] of Object.entries(exportLinks)) {
+    const link = $(id);
+    const usable = result && result.passes && result.maker === exportMaker[dialect];
+    if (usable) link.href = `/api/export/${dialect}?${robotQuery()}`;
+    else link.removeAttribute("href");
+    link.classList.toggle("disabled", !usable);
+    link.title = usable ? "" : result ? (result.passes ? `for ${exportMaker[dialect]} robots` : "the check fails: no program") : "check first";
+  }
+}
+setExports(null);
+
+async function checkRobot() {
+  $("robot-summary").textContent = "checking…";
+  try {
+    const result = await api(`/api/robot?${robotQuery()}`);
+    const verdict = result.passes ? "the robot can run this path" : `${result.failing} of ${result.frames} frames fail (${result.unreachable} out of reach)`;
+    $("robot-summary").textContent = `${result.robot}: ${result.frames} frames checked at ${result.cutoff_hz} Hz; ${verdict}; peak joint speed ${(100 * result.peak_speed_ratio).toFixed(0)} % of the limit. ${result.suggestions.map((s) => s.text).join(" ")}`;
+    const rows = result.limits.map((l, i) => `<tr><td>axis ${i + 1}</td><td>${l.min_deg.toFixed(1)}</td><td>${l.max_deg.toFixed(1)}</td><td>${l.max_speed_deg_s.toFixed(0)}</td><td>${l.peak_speed_deg_s.toFixed(1)}</td><td class="${l.speed_margin < 0.1 ? "tight" : ""}">${(100 * l.speed_margin).toFixed(0)} %</td></tr>`);
+    $("robot-limits").innerHTML = `<tr><th></th><th>min °</th><th>max °</th><th>max °/s</th><th>peak °/s</th><th>speed margin</th></tr>${rows.join("")}`;
+    const suggestion = result.suggestions.find((s) => s.wobj);
+    const use = $("use-suggestion");
+    use.disabled = !suggestion;
+    use.dataset.wobj = suggestion ? suggestion.wobj : "";
+    showRobot(result);
+    setExports(result);
+  } catch (error) {
+    $("robot-summary").textContent = error.message;
+    setExports(null);
+  }
+}
+
+$("robot-form").addEventListener("submit", (event) => {
+  event.preventDefault();
+  checkRobot();
+});
+$("use-suggestion").addEventListener("click", () => {
+  $("wobj").value = $("use-suggestion").dataset.wobj;
+  checkRobot();
+});
+for (const id of ["robot-name", "wobj", "tcp"]) $(id).addEventListener("change", () => setExports(null));
+
+// ---- review ----
+let reviewTimer = null;
+let reviewSerial = 0;
+
+function requestReview() {
+  clearTimeout(reviewTimer);
+  reviewTimer = setTimeout(drawReview, 80);
+}
+
+function digest(value) {
+  // A short digest of the figures' numbers, so that a test can see the plotted data change.
+  const text = JSON.stringify(value);
+  let h = 2166136261;
+  for (let i = 0; i < text.length; i += 1) h = Math.imul(h ^ text.charCodeAt(i), 16777619);
+  return (h >>> 0).toString(16);
+}
+
+async function drawReview() {
+  const cutoff = $("cutoff").value;
+  $("cutoff-value").textContent = `${Number(cutoff).toFixed(1)} Hz`;
+  if (!window.teachcamReview) {
+    $("review-state").textContent = "the review figures are not available in this build";
+    return;
+  }
+  if (!studio.status || studio.status.take_frames < 30) {
+    $("review-state").textContent = "waiting for a take (let the source run, or record one)";
+    return;
+  }
+  const serial = ++reviewSerial;
+  $("review-state").textContent = "smoothing…";
+  try {
+    const figures = await api(`/api/review?cutoff_hz=${encodeURIComponent(cutoff)}`);
+    if (serial !== reviewSerial) return;
+    window.teachcamReview.draw($("review"), figures);
+    studio.reviewDraws += 1;
+    studio.reviewCutoffHz = Number(cutoff);
+    studio.reviewSignature = digest(figures);
+    $("review").dataset.draws = studio.reviewDraws;
+    $("review").dataset.signature = studio.reviewSignature;
+    $("review-state").textContent = `${figures.frames ?? ""} frames of the take, cut-off ${Number(cutoff).toFixed(1)} Hz`;
+  } catch (error) {
+    $("review-state").textContent = error.message;
+  }
+}
+
+$("cutoff").addEventListener("input", () => {
+  $("cutoff-value").textContent = `${Number($("cutoff").value).toFixed(1)} Hz`;
+  requestReview();
+  setExports(null);
+});
+
+// ---- start ----
+resizeScene();
+loadScene()
+  .catch((error) => showError(error.message))
+  .finally(() => {
+    connect();
+    requestAnimationFrame(render);
+  });
+pollStatus();
+setInterval(pollStatus, 1000);
