@@ -223,7 +223,7 @@ pub fn run(studio: &Studio, opened: Opened) {
                 studio.live().error = Some(message);
                 std::thread::sleep(Duration::from_millis(200));
             }
-            Ended::SourceEnded if !current.source.is_live() => {
+            Ended::Exhausted if !current.source.is_live() => {
                 // A recording played to its end: its pass is the take; play it again.
                 {
                     let mut live = studio.live();
@@ -240,7 +240,7 @@ pub fn run(studio: &Studio, opened: Opened) {
                     }
                 }
             }
-            Ended::SourceEnded => {
+            Ended::Exhausted => {
                 // A live source that reached its set limit stays ended.
                 while !studio.is_shutting_down() {
                     std::thread::sleep(Duration::from_millis(100));
@@ -255,7 +255,7 @@ enum Ended {
     /// The controls changed, or the studio is stopping.
     Restart,
     /// The source has no more sets.
-    SourceEnded,
+    Exhausted,
     /// A frame was refused.
     Error(String),
 }
@@ -283,7 +283,7 @@ fn track(
     studio.live().source_fps = fps;
     while !studio.is_shutting_down() {
         let Some(frame) = stream.next() else {
-            return Ended::SourceEnded;
+            return Ended::Exhausted;
         };
         let frame = match frame {
             Ok(frame) => frame,

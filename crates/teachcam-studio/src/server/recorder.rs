@@ -180,16 +180,14 @@ fn write(
                     scope.spawn(move || write_frame_png(&path, image))
                 })
                 .collect();
-            jobs.into_iter()
-                .map(|job| {
-                    job.join().unwrap_or_else(|_| {
-                        Err(FileError::Write {
-                            path: root.clone(),
-                            source: std::io::Error::other("a frame writer stopped"),
-                        })
+            jobs.into_iter().try_for_each(|job| {
+                job.join().unwrap_or_else(|_| {
+                    Err(FileError::Write {
+                        path: root.clone(),
+                        source: std::io::Error::other("a frame writer stopped"),
                     })
                 })
-                .collect::<Result<(), FileError>>()
+            })
         })?;
         for ((_, time_s), name) in frames.iter().zip(names) {
             if let Some(t) = times.get_mut(name) {

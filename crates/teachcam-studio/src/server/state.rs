@@ -108,7 +108,7 @@ impl Take {
                 .samples
                 .iter()
                 .map(|s| {
-                    let mut s = s.clone();
+                    let mut s = *s;
                     s.frame = FrameIndex(s.frame.0 - first.0);
                     s.time_s -= first.1;
                     s
