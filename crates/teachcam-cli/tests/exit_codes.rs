@@ -286,6 +286,10 @@ const NOT_RUN: &[(&str, &str)] = &[
     ("teachcam record --source v4l2:", "needs V4L2 cameras"),
     ("teachcam live --source v4l2:", "needs V4L2 cameras"),
     (
+        "teachcam studio",
+        "serves until Ctrl-C; tests/record_live.rs starts and stops it, teachcam-studio's tests drive it",
+    ),
+    (
         "teachcam simulate --scenario wand",
         "renders 430 frames x 4 cameras (about 30 s of CPU); tests/calibrate_wand_cli.rs runs it",
     ),

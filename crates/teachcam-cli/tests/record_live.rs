@@ -120,6 +120,74 @@ fn ctrl_c_ends_a_recording_with_whole_frames_and_a_valid_folder() {
     }
 }
 
+/// One HTTP/1.1 GET over loopback; the response's status line and body.
+fn http_get(port: u16, path: &str) -> (String, String) {
+    use std::io::{Read, Write};
+    let mut stream = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    write!(
+        stream,
+        "GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).unwrap();
+    let (head, body) = response.split_once("\r\n\r\n").unwrap_or((&response, ""));
+    (
+        head.lines().next().unwrap_or_default().to_string(),
+        body.to_string(),
+    )
+}
+
+/// `teachcam studio` prints its address, answers `/api/status` with `source` and `frames`,
+/// and ends cleanly (status 0) on Ctrl-C.
+#[test]
+fn studio_serves_its_status_and_ends_on_ctrl_c() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_teachcam"))
+        .args(["studio", "--out"])
+        .arg(dir.path().join("takes"))
+        .current_dir(dir.path())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let url = line
+        .strip_prefix("teachcam studio: http://127.0.0.1:")
+        .unwrap_or_else(|| panic!("the first line is the address: {line:?}"));
+    let (port, rest) = url.split_once('/').unwrap();
+    let port: u16 = port.parse().unwrap();
+    assert!(rest.trim_end().starts_with("?token="), "{line}");
+    let mut frames = 0;
+    let started = std::time::Instant::now();
+    while frames < 3 {
+        assert!(started.elapsed().as_secs() < 60, "no frames tracked");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        let (status, body) = http_get(port, "/api/status");
+        assert!(status.contains(" 200 "), "{status}");
+        let status: serde_json::Value = serde_json::from_str(&body).unwrap();
+        assert_eq!(status["source"], "sim:paper", "{status}");
+        frames = status["frames"].as_u64().unwrap();
+    }
+    let (status, _) = http_get(port, "/nothing-here");
+    assert!(status.contains(" 404 "), "{status}");
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        !dir.path().join("takes").exists(),
+        "nothing recorded, nothing written"
+    );
+}
+
 #[test]
 fn live_on_the_simulator_ends_with_its_json_summary() {
     let dir = tempfile::tempdir().unwrap();

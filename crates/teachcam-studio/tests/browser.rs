@@ -1,7 +1,10 @@
 //! The headless browser the page tests rely on: it draws WebGL and it reports console errors,
 //! so a page test that sees no error and a drawn canvas means what it says.
 
-#![allow(clippy::print_stderr, reason = "a test says what it measured and what it skipped")]
+#![allow(
+    clippy::print_stderr,
+    reason = "a test says what it measured and what it skipped"
+)]
 
 mod support;
 
