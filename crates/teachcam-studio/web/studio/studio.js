@@ -124,7 +124,10 @@ function onFrame(buffer) {
     offset += size;
   });
   updateTool(header);
-  needsRender = true;
+  // The 3-D view moves with the frames it shows (a browser's animation frames may come slower
+  // than the cameras' when it renders in software).
+  if (sceneReady && $("tab-live").classList.contains("active")) renderScene();
+  else needsRender = true;
   studio.lastFrame = header;
   studio.framesDrawn += 1;
   const now = performance.now();
@@ -322,6 +325,7 @@ function updateTool(frame) {
 }
 
 let sceneInfo = null;
+let sceneReady = false;
 
 function frameView(target) {
   // Look at the tool from beyond the rig's mean camera, close enough to see its markers.
@@ -391,6 +395,7 @@ async function loadScene() {
   tipBall.position.copy(tip);
   tool.add(tipBall);
   if (!framed) frameView(new THREE.Vector3(0, 0, 0));
+  sceneReady = true;
 }
 
 function resizeScene() {
@@ -533,16 +538,18 @@ function stepArm() {
   if (index !== studio.armFrame) showArmFrame(index);
 }
 
+function renderScene() {
+  needsRender = false;
+  const began = performance.now();
+  renderer.render(scene, view3);
+  studio.renderMs = 0.9 * studio.renderMs + 0.1 * (performance.now() - began);
+  studio.sceneRenders += 1;
+  if (studio.sceneRenders % 10 === 0) checkToolOnScreen();
+}
+
 function render() {
   stepArm();
-  if (needsRender) {
-    needsRender = false;
-    const began = performance.now();
-    renderer.render(scene, view3);
-    studio.renderMs = 0.9 * studio.renderMs + 0.1 * (performance.now() - began);
-    studio.sceneRenders += 1;
-    if (studio.sceneRenders % 10 === 0) checkToolOnScreen();
-  }
+  if (needsRender) renderScene();
   requestAnimationFrame(render);
 }
 
