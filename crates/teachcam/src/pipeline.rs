@@ -317,11 +317,12 @@ impl<'s, B: FrameDetections> DetectStream<'s, B> {
                 };
                 let name = &names[c];
                 let image = frame.decode(name, sizes[c])?;
-                let blobs = B::detect_frame(&image, config).map_err(|source| PipelineError::Detect {
-                    camera: name.clone(),
-                    frame: frame.frame,
-                    source,
-                })?;
+                let blobs =
+                    B::detect_frame(&image, config).map_err(|source| PipelineError::Detect {
+                        camera: name.clone(),
+                        frame: frame.frame,
+                        source,
+                    })?;
                 Ok(Some((
                     image.dimensions(),
                     CameraDetections {

@@ -566,22 +566,17 @@ pub fn detect_for_tracking(
     let (recording, min_roundness) = match min_roundness {
         Some(_) => {
             let gate = roundness_gate(&[], min_roundness);
-            let detected = detect_folder(recording, flags.fps, |_| {
-                Ok(setups(gate.value))
-            })?;
+            let detected = detect_folder(recording, flags.fps, |_| Ok(setups(gate.value)))?;
             (detected, gate)
         }
         None => {
             // One pass at the lowest floor, each frame's blobs kept for every stricter one: the
             // gate from a sample of them, then every frame at the gate, each decoded once.
             let choices: DetectedRecording<RoundnessChoices> =
-                detect_folder(recording, flags.fps, |_| {
-                    Ok(setups(ROUNDNESS_FLOOR))
-                })?;
-            let sample: BTreeSet<usize> =
-                sampled_sets(choices.len_hint, ROUNDNESS_SAMPLE_FRAMES)
-                    .into_iter()
-                    .collect();
+                detect_folder(recording, flags.fps, |_| Ok(setups(ROUNDNESS_FLOOR)))?;
+            let sample: BTreeSet<usize> = sampled_sets(choices.len_hint, ROUNDNESS_SAMPLE_FRAMES)
+                .into_iter()
+                .collect();
             let roundness: Vec<f64> = choices
                 .sets
                 .iter()
@@ -594,9 +589,7 @@ pub fn detect_for_tracking(
             let detected = match choices.at(gate.value) {
                 Some(detected) => detected,
                 // A gate below the floor (none is measured so): detect again with it.
-                None => detect_folder(recording, flags.fps, |_| {
-                    Ok(setups(gate.value))
-                })?,
+                None => detect_folder(recording, flags.fps, |_| Ok(setups(gate.value)))?,
             };
             (detected, gate)
         }
