@@ -1,0 +1,201 @@
+//! Headless Chromium for the browser tests: Debian's `chromium` driven through its
+//! `chromedriver` (WebDriver, by `fantoccini`), on a free loopback port, one session per test.
+//!
+//! Where the browser is not installed the test says it was skipped; under `CI=true` that is a
+//! failure (`.ci/run` installs both packages).
+//!
+//! Test support: a failure here is a failed test, so it panics with what went wrong.
+#![allow(clippy::expect_used, clippy::unwrap_used, clippy::print_stderr)]
+
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use fantoccini::wd::{Capabilities, WebDriverCompatibleCommand};
+use fantoccini::{Client, ClientBuilder};
+use serde_json::{Value, json};
+
+/// How long chromedriver may take to answer after it starts.
+const DRIVER_START: Duration = Duration::from_secs(20);
+
+/// A browser session and the chromedriver serving it (stopped on drop).
+#[derive(Debug)]
+pub struct Browser {
+    /// The WebDriver session.
+    pub client: Client,
+    driver: Child,
+}
+
+/// The first of `names` found on the PATH or in /usr/bin.
+fn program(names: &[&str]) -> Option<PathBuf> {
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    let dirs = std::env::split_paths(&path).chain([PathBuf::from("/usr/bin")]);
+    let dirs: Vec<PathBuf> = dirs.collect();
+    names
+        .iter()
+        .flat_map(|name| dirs.iter().map(move |dir| dir.join(name)))
+        .find(|candidate| candidate.is_file())
+}
+
+/// A loopback port nobody listens on now.
+fn free_port() -> u16 {
+    let listener = TcpListener::bind("127.0.0.1:0").expect("a free loopback port");
+    listener.local_addr().expect("its address").port()
+}
+
+/// chromedriver's own command for the browser's console log (`POST /session/{id}/se/log`).
+#[derive(Debug)]
+struct BrowserLog;
+
+impl WebDriverCompatibleCommand for BrowserLog {
+    fn endpoint(
+        &self,
+        base_url: &url::Url,
+        session_id: Option<&str>,
+    ) -> Result<url::Url, url::ParseError> {
+        base_url.join(&format!(
+            "session/{}/se/log",
+            session_id.unwrap_or_default()
+        ))
+    }
+
+    fn method_and_body(&self, _request_url: &url::Url) -> (http::Method, Option<String>) {
+        (
+            http::Method::POST,
+            Some(json!({"type": "browser"}).to_string()),
+        )
+    }
+}
+
+impl Browser {
+    /// Starts headless Chromium, or says why `test` is skipped and returns None (a failure
+    /// under `CI=true`).
+    pub async fn open(test: &str) -> Option<Browser> {
+        let (Some(chromium), Some(chromedriver)) = (
+            program(&["chromium", "chromium-browser", "google-chrome"]),
+            program(&["chromedriver"]),
+        ) else {
+            let why = "chromium and chromedriver are not installed \
+                       (apt-get install chromium chromium-driver)";
+            assert!(
+                std::env::var("CI").as_deref() != Ok("true"),
+                "{test}: {why}"
+            );
+            eprintln!("{test}: skipped: {why}");
+            return None;
+        };
+        let port = free_port();
+        let driver = Command::new(&chromedriver)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| panic!("{test}: starting {}: {e}", chromedriver.display()));
+        let mut capabilities = Capabilities::new();
+        capabilities.insert(
+            "goog:chromeOptions".into(),
+            json!({
+                "binary": chromium,
+                "args": [
+                    "--headless=new",
+                    "--no-sandbox",
+                    "--disable-dev-shm-usage",
+                    "--disable-background-networking",
+                    "--disable-extensions",
+                    "--no-first-run",
+                    "--window-size=1280,900",
+                    // WebGL without a GPU: ANGLE on SwiftShader, the software renderer.
+                    "--use-angle=swiftshader",
+                    "--enable-unsafe-swiftshader",
+                ],
+            }),
+        );
+        capabilities.insert("goog:loggingPrefs".into(), json!({"browser": "ALL"}));
+        let connector = hyper_util::client::legacy::connect::HttpConnector::new();
+        let url = format!("http://127.0.0.1:{port}");
+        let started = Instant::now();
+        Some(Browser {
+            client: loop {
+                match ClientBuilder::new(connector.clone())
+                    .capabilities(capabilities.clone())
+                    .connect(&url)
+                    .await
+                {
+                    Ok(client) => break client,
+                    Err(e) if started.elapsed() > DRIVER_START => {
+                        panic!("{test}: chromedriver did not start a session: {e}")
+                    }
+                    Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+                }
+            },
+            driver,
+        })
+    }
+
+    /// The browser's console entries since the last call, as `LEVEL message` lines.
+    pub async fn console(&self) -> Vec<String> {
+        let log = self
+            .client
+            .issue_cmd(BrowserLog)
+            .await
+            .expect("chromedriver's browser log");
+        log.as_array()
+            .map(|entries| {
+                entries
+                    .iter()
+                    .map(|e| format!("{} {}", e["level"].as_str().unwrap_or("?"), e["message"]))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// The console errors (level SEVERE) since the last call to `console` or `errors`.
+    pub async fn errors(&self) -> Vec<String> {
+        let mut all = self.console().await;
+        all.retain(|line| line.starts_with("SEVERE"));
+        all
+    }
+
+    /// Opens a local file.
+    pub async fn open_file(&self, path: &Path) {
+        let path = path.canonicalize().expect("the page's file exists");
+        self.client
+            .goto(&format!("file://{}", path.display()))
+            .await
+            .expect("the browser opens the page");
+    }
+
+    /// Evaluates `script` (a function body: `return …`) in the page.
+    pub async fn eval(&self, script: &str) -> Value {
+        self.client
+            .execute(script, vec![])
+            .await
+            .unwrap_or_else(|e| panic!("running {script:?} in the page: {e}"))
+    }
+
+    /// Waits until `script` returns true, for at most `timeout`; returns whether it did.
+    pub async fn wait_for(&self, script: &str, timeout: Duration) -> bool {
+        let started = Instant::now();
+        while started.elapsed() < timeout {
+            if self.eval(script).await == Value::Bool(true) {
+                return true;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        false
+    }
+
+    /// Ends the session and chromedriver.
+    pub async fn close(mut self) {
+        let _ = self.client.clone().close().await;
+        let _ = self.driver.kill();
+        let _ = self.driver.wait();
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = self.driver.kill();
+    }
+}
