@@ -292,7 +292,7 @@ fn nearly_touching_discs_that_merge_at_threshold_are_split_and_measured() {
 
 /// The roundness floor chosen after detection gives what detecting with it gives.
 fn assert_choices_match_detection(image: &image::GrayImage, cfg: &DetectConfig, gates: &[f64]) {
-    let choices = detect_choices(GrayView::new(image), cfg).unwrap();
+    let choices = detect_choices(GrayView::new(image), cfg).unwrap_or_else(|e| panic!("{e}"));
     for &gate in gates {
         let direct = detect(
             image,
@@ -301,7 +301,7 @@ fn assert_choices_match_detection(image: &image::GrayImage, cfg: &DetectConfig, 
                 ..cfg.clone()
             },
         )
-        .unwrap();
+        .unwrap_or_else(|e| panic!("{e}"));
         let chosen = choices.at(gate);
         if gate < cfg.min_roundness {
             assert_eq!(
