@@ -354,6 +354,88 @@ pub fn detect_view<P: Intensity>(
     image: GrayView<'_, P>,
     cfg: &DetectConfig,
 ) -> Result<Vec<Blob>, DetectError> {
+    let regions = region_blobs(image, cfg, cfg.min_roundness)?;
+    Ok(gated(&regions, cfg.min_roundness))
+}
+
+/// A frame's blobs for every roundness floor from the configuration's
+/// ([`DetectConfig::min_roundness`]) up, so that the floor can be chosen after detection from
+/// the blobs themselves without detecting the image again: each region measured whole and
+/// split ([`measure::split`]). The floor changes the result at two places only, both kept here:
+/// a whole blob below it is split instead, and split parts below it are left out.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RoundnessChoices {
+    floor: f64,
+    regions: Vec<RegionBlobs>,
+}
+
+impl RoundnessChoices {
+    /// The lowest floor the choices hold: the configuration's.
+    #[must_use]
+    pub fn floor(&self) -> f64 {
+        self.floor
+    }
+
+    /// The blobs [`detect`] gives with [`DetectConfig::min_roundness`] set to `min_roundness`,
+    /// the same blobs in the same order; `None` below [`Self::floor`] (blobs less round than
+    /// the floor were not kept).
+    #[must_use]
+    pub fn at(&self, min_roundness: f64) -> Option<Vec<Blob>> {
+        (min_roundness >= self.floor).then(|| gated(&self.regions, min_roundness))
+    }
+}
+
+/// One region's blob measured whole and, where it may be needed, the parts it splits into.
+#[derive(Debug, Clone, PartialEq)]
+struct RegionBlobs {
+    /// The region as one blob; `None` when it is too large or has no flux.
+    whole: Option<Blob>,
+    /// [`measure::split`]'s parts (each at least as round as the detection's floor); computed
+    /// when `whole` is missing or less round than the `split_below` it was detected with.
+    parts: Vec<Blob>,
+}
+
+/// What [`detect`] keeps of `regions` at a roundness floor: a region's whole blob when it is
+/// that round, else its parts that are.
+fn gated(regions: &[RegionBlobs], min_roundness: f64) -> Vec<Blob> {
+    let mut blobs = Vec::with_capacity(regions.len());
+    for region in regions {
+        match &region.whole {
+            Some(blob) if blob.roundness >= min_roundness => blobs.push(blob.clone()),
+            // Not one round marker: perhaps several whose images merged.
+            _ => blobs.extend(
+                region
+                    .parts
+                    .iter()
+                    .filter(|p| p.roundness >= min_roundness)
+                    .cloned(),
+            ),
+        }
+    }
+    blobs
+}
+
+/// The choices of every roundness floor from `cfg`'s up; see [`RoundnessChoices`].
+///
+/// # Errors
+/// As [`detect_view`].
+pub fn detect_choices<P: Intensity>(
+    image: GrayView<'_, P>,
+    cfg: &DetectConfig,
+) -> Result<RoundnessChoices, DetectError> {
+    Ok(RoundnessChoices {
+        floor: cfg.min_roundness,
+        regions: region_blobs(image, cfg, f64::INFINITY)?,
+    })
+}
+
+/// Each kept region's blob, and its split parts where the whole blob is missing or less round
+/// than `split_below`.
+fn region_blobs<P: Intensity>(
+    image: GrayView<'_, P>,
+    cfg: &DetectConfig,
+    split_below: f64,
+) -> Result<Vec<RegionBlobs>, DetectError> {
     if image.width.checked_mul(image.height) != Some(image.pixels.len()) {
         return Err(DetectError::BadBuffer {
             width: image.width,
@@ -380,7 +462,7 @@ pub fn detect_view<P: Intensity>(
     )?;
     let margin_px = cfg.window_margin_px.clamp(0.0, 64.0).ceil() as u32 + 1;
     let windows = measure::exclusive_windows(image, &regions, margin_px);
-    let mut blobs = Vec::new();
+    let mut kept = Vec::with_capacity(regions.len());
     for (region, window) in regions.iter().zip(windows) {
         if region.area < cfg.min_area_px || region.touches_border(image.width, image.height) {
             continue;
@@ -388,11 +470,11 @@ pub fn detect_view<P: Intensity>(
         let whole = (region.area <= cfg.max_area_px)
             .then(|| measure::measure(image, region, window, &background, cfg))
             .flatten();
-        match whole {
-            Some(blob) if blob.roundness >= cfg.min_roundness => blobs.push(blob),
-            // Not one round marker: perhaps several whose images merged.
-            _ => blobs.extend(measure::split(image, region, &background, cfg)),
-        }
+        let parts = match &whole {
+            Some(blob) if blob.roundness >= split_below => Vec::new(),
+            _ => measure::split(image, region, &background, cfg),
+        };
+        kept.push(RegionBlobs { whole, parts });
     }
-    Ok(blobs)
+    Ok(kept)
 }

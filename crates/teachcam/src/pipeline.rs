@@ -25,7 +25,9 @@ use rayon::prelude::*;
 
 use crate::camera::Rig;
 use crate::correspond::Views;
-use crate::detect::{Blob, DetectConfig, DetectError, detect};
+use crate::detect::{
+    Blob, DetectConfig, DetectError, GrayView, RoundnessChoices, detect, detect_choices,
+};
 use crate::geometry::CameraId;
 use crate::io::recording::GrayFrame;
 use crate::metrology::first_order;
@@ -62,9 +64,10 @@ pub enum PipelineError {
     Config(String),
 }
 
-/// One camera's blobs in one set.
+/// One camera's blobs in one set: `B` is [`Vec<Blob>`], or [`RoundnessChoices`] when the
+/// roundness floor is chosen after detection.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CameraDetections {
+pub struct CameraDetections<B = Vec<Blob>> {
     /// The camera's name.
     pub camera: String,
     /// The frame's number in the camera's own stream.
@@ -72,12 +75,12 @@ pub struct CameraDetections {
     /// The frame's exposure time, seconds.
     pub time_s: f64,
     /// The blobs, in raster order.
-    pub blobs: Vec<Blob>,
+    pub blobs: B,
 }
 
 /// The blobs of every camera at one instant.
 #[derive(Debug, Clone, PartialEq)]
-pub struct DetectedSet {
+pub struct DetectedSet<B = Vec<Blob>> {
     /// The set's index in the stream (the recording's frame number).
     pub index: usize,
     /// The set's time, seconds.
@@ -86,7 +89,63 @@ pub struct DetectedSet {
     pub exposed_at: Option<Instant>,
     /// One entry per detected camera, in the order the stream was given its configurations;
     /// `None` where the camera had no frame at this instant.
-    pub cameras: Vec<Option<CameraDetections>>,
+    pub cameras: Vec<Option<CameraDetections<B>>>,
+}
+
+impl DetectedSet<RoundnessChoices> {
+    /// The set as [`detect`] with roundness floor `min_roundness` finds it; `None` below the
+    /// floor the choices were detected with.
+    #[must_use]
+    pub fn at(&self, min_roundness: f64) -> Option<DetectedSet> {
+        let cameras = self
+            .cameras
+            .iter()
+            .map(|camera| match camera {
+                None => Some(None),
+                Some(c) => Some(Some(CameraDetections {
+                    camera: c.camera.clone(),
+                    frame: c.frame,
+                    time_s: c.time_s,
+                    blobs: c.blobs.at(min_roundness)?,
+                })),
+            })
+            .collect::<Option<_>>()?;
+        Some(DetectedSet {
+            index: self.index,
+            time_s: self.time_s,
+            exposed_at: self.exposed_at,
+            cameras,
+        })
+    }
+}
+
+/// What a stream finds in one camera's frame: its blobs ([`Vec<Blob>`], by [`detect`]) or its
+/// blobs for every roundness floor from the configuration's up ([`RoundnessChoices`], by
+/// [`detect_choices`]).
+pub trait FrameDetections: Sized + Send {
+    /// Detects `image` with `config`.
+    ///
+    /// # Errors
+    /// As [`detect`].
+    fn detect_frame(image: &GrayFrame, config: &DetectConfig) -> Result<Self, DetectError>;
+}
+
+impl FrameDetections for Vec<Blob> {
+    fn detect_frame(image: &GrayFrame, config: &DetectConfig) -> Result<Self, DetectError> {
+        match image {
+            GrayFrame::Eight(i) => detect(i, config),
+            GrayFrame::Sixteen(i) => detect(i, config),
+        }
+    }
+}
+
+impl FrameDetections for RoundnessChoices {
+    fn detect_frame(image: &GrayFrame, config: &DetectConfig) -> Result<Self, DetectError> {
+        match image {
+            GrayFrame::Eight(i) => detect_choices(GrayView::new(i), config),
+            GrayFrame::Sixteen(i) => detect_choices(GrayView::new(i), config),
+        }
+    }
 }
 
 /// A camera to detect: its name among the source's cameras, its detector configuration, and
@@ -102,17 +161,18 @@ pub struct CameraSetup {
 }
 
 /// One camera's frame detected: its size and blobs, or nothing when it had no frame.
-type DetectedFrame = Result<Option<((u32, u32), CameraDetections)>, PipelineError>;
+type DetectedFrame<B> = Result<Option<((u32, u32), CameraDetections<B>)>, PipelineError>;
 
-/// Detection over a source's frames, set by set.
+/// Detection over a source's frames, set by set; `B` is what each camera's frame gives
+/// ([`FrameDetections`]).
 #[derive(Debug)]
-pub struct DetectStream<'s> {
+pub struct DetectStream<'s, B = Vec<Blob>> {
     source: &'s mut dyn FrameSource,
     /// For each detected camera: its position among the source's cameras, its configuration.
     cameras: Vec<(usize, DetectConfig)>,
     sizes: Vec<Option<(u32, u32)>>,
     batch: usize,
-    ready: VecDeque<DetectedSet>,
+    ready: VecDeque<DetectedSet<B>>,
     done: bool,
 }
 
@@ -122,6 +182,39 @@ impl<'s> DetectStream<'s> {
     /// # Errors
     /// [`PipelineError::MissingCamera`] when a name is not among the source's cameras.
     pub fn new(
+        source: &'s mut dyn FrameSource,
+        cameras: Vec<CameraSetup>,
+    ) -> Result<Self, PipelineError> {
+        Self::detecting(source, cameras)
+    }
+
+    /// Every camera of the source, each with the same configuration and its first frame's size.
+    ///
+    /// # Errors
+    /// Never in practice (every name is the source's own); kept for one signature.
+    pub fn all_cameras(
+        source: &'s mut dyn FrameSource,
+        config: &DetectConfig,
+    ) -> Result<Self, PipelineError> {
+        let cameras = source
+            .cameras()
+            .iter()
+            .map(|c| CameraSetup {
+                name: c.name.clone(),
+                detect: config.clone(),
+                size: None,
+            })
+            .collect();
+        Self::new(source, cameras)
+    }
+}
+
+impl<'s, B: FrameDetections> DetectStream<'s, B> {
+    /// Detects these cameras of `source`, in this order, each frame into a `B`.
+    ///
+    /// # Errors
+    /// [`PipelineError::MissingCamera`] when a name is not among the source's cameras.
+    pub fn detecting(
         source: &'s mut dyn FrameSource,
         cameras: Vec<CameraSetup>,
     ) -> Result<Self, PipelineError> {
@@ -170,26 +263,6 @@ impl<'s> DetectStream<'s> {
         })
     }
 
-    /// Every camera of the source, each with the same configuration and its first frame's size.
-    ///
-    /// # Errors
-    /// Never in practice (every name is the source's own); kept for one signature.
-    pub fn all_cameras(
-        source: &'s mut dyn FrameSource,
-        config: &DetectConfig,
-    ) -> Result<Self, PipelineError> {
-        let cameras = source
-            .cameras()
-            .iter()
-            .map(|c| CameraSetup {
-                name: c.name.clone(),
-                detect: config.clone(),
-                size: None,
-            })
-            .collect();
-        Self::new(source, cameras)
-    }
-
     /// The source's nominal rate.
     #[must_use]
     pub fn fps(&self) -> f64 {
@@ -218,7 +291,7 @@ impl<'s> DetectStream<'s> {
     }
 
     /// Reads, decodes and detects the next batch of sets, in order.
-    fn next_batch(&mut self) -> Result<Vec<DetectedSet>, PipelineError> {
+    fn next_batch(&mut self) -> Result<Vec<DetectedSet<B>>, PipelineError> {
         let mut sets: Vec<FrameSet> = Vec::with_capacity(self.batch);
         while sets.len() < self.batch {
             match self.source.next_set() {
@@ -235,7 +308,7 @@ impl<'s> DetectStream<'s> {
             .collect();
         let sizes = &self.sizes;
         let cameras = &self.cameras;
-        let results: Vec<DetectedFrame> = jobs
+        let results: Vec<DetectedFrame<B>> = jobs
             .par_iter()
             .map(|&(s, c)| {
                 let (position, config) = &cameras[c];
@@ -244,15 +317,12 @@ impl<'s> DetectStream<'s> {
                 };
                 let name = &names[c];
                 let image = frame.decode(name, sizes[c])?;
-                let blobs = match image.as_ref() {
-                    GrayFrame::Eight(i) => detect(i, config),
-                    GrayFrame::Sixteen(i) => detect(i, config),
-                }
-                .map_err(|source| PipelineError::Detect {
-                    camera: name.clone(),
-                    frame: frame.frame,
-                    source,
-                })?;
+                let blobs =
+                    B::detect_frame(&image, config).map_err(|source| PipelineError::Detect {
+                        camera: name.clone(),
+                        frame: frame.frame,
+                        source,
+                    })?;
                 Ok(Some((
                     image.dimensions(),
                     CameraDetections {
@@ -303,8 +373,8 @@ impl<'s> DetectStream<'s> {
     }
 }
 
-impl Iterator for DetectStream<'_> {
-    type Item = Result<DetectedSet, PipelineError>;
+impl<B: FrameDetections> Iterator for DetectStream<'_, B> {
+    type Item = Result<DetectedSet<B>, PipelineError>;
 
     fn next(&mut self) -> Option<Self::Item> {
         if self.ready.is_empty() && !self.done {

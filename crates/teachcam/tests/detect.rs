@@ -5,7 +5,8 @@ mod discs;
 
 use discs::{Disc, Scene};
 use teachcam::detect::{
-    Blob, CenterMethod, DetectConfig, DetectError, Threshold, detect, detect_dynamic,
+    Blob, CenterMethod, DetectConfig, DetectError, GrayView, Threshold, detect, detect_choices,
+    detect_dynamic,
 };
 use teachcam::geometry::Pixel;
 
@@ -287,6 +288,141 @@ fn nearly_touching_discs_that_merge_at_threshold_are_split_and_measured() {
     // Some pairs really merged, so the split path was exercised.
     assert!(merged > 0);
     assert!(worst < 0.06, "worst {worst}");
+}
+
+/// The roundness floor chosen after detection gives what detecting with it gives.
+fn assert_choices_match_detection(image: &image::GrayImage, cfg: &DetectConfig, gates: &[f64]) {
+    let choices = detect_choices(GrayView::new(image), cfg).unwrap_or_else(|e| panic!("{e}"));
+    for &gate in gates {
+        let direct = detect(
+            image,
+            &DetectConfig {
+                min_roundness: gate,
+                ..cfg.clone()
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let chosen = choices.at(gate);
+        if gate < cfg.min_roundness {
+            assert_eq!(
+                chosen, None,
+                "gate {gate} below the floor {}",
+                cfg.min_roundness
+            );
+        } else {
+            assert_eq!(
+                chosen,
+                Some(direct),
+                "gate {gate}, floor {}",
+                cfg.min_roundness
+            );
+        }
+    }
+}
+
+#[test]
+fn roundness_chosen_after_detection_equals_detection_with_it() {
+    // A round disc, a pair that merges at threshold and splits at half contrast, a touching
+    // pair (one unround blob that does not split) and a pair overlapping so much that it is
+    // one long blob of middling roundness.
+    let scene = Scene {
+        blur_px: 0.6,
+        noise_std: 1.4,
+        ..paper_like_scene(7)
+    };
+    let discs = [
+        Disc {
+            x: 60.3,
+            y: 60.7,
+            radius_px: 7.0,
+        },
+        Disc {
+            x: 200.37,
+            y: 150.81,
+            radius_px: 9.3,
+        },
+        Disc {
+            x: 200.37 + 21.3 * 1.3f64.cos(),
+            y: 150.81 + 21.3 * 1.3f64.sin(),
+            radius_px: 9.76,
+        },
+        Disc {
+            x: 350.2,
+            y: 80.6,
+            radius_px: 6.0,
+        },
+        Disc {
+            x: 362.2,
+            y: 81.0,
+            radius_px: 6.0,
+        },
+        Disc {
+            x: 120.4,
+            y: 280.3,
+            radius_px: 8.0,
+        },
+        Disc {
+            x: 126.9,
+            y: 283.1,
+            radius_px: 8.0,
+        },
+    ];
+    let image = discs::render_u8(&scene, &discs);
+    let cfg = DetectConfig {
+        min_roundness: 0.3,
+        ..DetectConfig::default()
+    };
+    let gates: Vec<f64> = (0..=16).map(|k| 0.25 + 0.05 * f64::from(k)).collect();
+    assert_choices_match_detection(&image, &cfg, &gates);
+    // The scene changes with the gate (else the comparison proves nothing): at the lowest
+    // gate the unround blobs are kept whole, at the highest only the round ones and the split
+    // parts.
+    let counts: Vec<usize> = [0.3, 0.95]
+        .iter()
+        .map(|&g| {
+            detect_choices(GrayView::new(&image), &cfg)
+                .unwrap()
+                .at(g)
+                .unwrap()
+                .len()
+        })
+        .collect();
+    assert_ne!(counts[0], counts[1], "{counts:?}");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+    /// Any small image, any floor: each gate at or above the floor, the blobs' own roundness
+    /// values among them (the comparison is `>=`), gives detection's blobs at that gate.
+    #[test]
+    fn any_image_roundness_chosen_after_detection_equals_detection(
+        width in 1u32..48,
+        height in 1u32..48,
+        seed in 0u64..1_000_000,
+        floor in 0.0f64..1.0,
+        method in proptest::sample::select(vec![CenterMethod::Refined, CenterMethod::Centroid, CenterMethod::SmallestCircle]),
+    ) {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let image = image::GrayImage::from_fn(width, height, |_, _| {
+            let v: u8 = rng.random();
+            image::Luma([if v < 170 { 10 } else { v }])
+        });
+        let cfg = DetectConfig {
+            threshold: Threshold::Fixed(100),
+            min_area_px: 1,
+            min_roundness: floor,
+            method,
+            ..DetectConfig::default()
+        };
+        let mut gates: Vec<f64> = detect(&image, &DetectConfig { min_roundness: 0.0, ..cfg.clone() })
+            .unwrap()
+            .iter()
+            .map(|b| b.roundness)
+            .collect();
+        gates.extend([floor - 0.01, floor, 0.5 * (floor + 1.0), 1.0, 1.5]);
+        assert_choices_match_detection(&image, &cfg, &gates);
+    }
 }
 
 #[test]

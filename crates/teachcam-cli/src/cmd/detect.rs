@@ -6,10 +6,10 @@ use std::collections::BTreeMap;
 
 use anyhow::Context;
 use teachcam::camera::Rig;
-use teachcam::detect::{Blob, CenterMethod, DetectConfig, Threshold};
+use teachcam::detect::{Blob, CenterMethod, DetectConfig, RoundnessChoices, Threshold};
 use teachcam::geometry::CameraId;
 use teachcam::io::{Output, check_outputs, write_atomically};
-use teachcam::pipeline::{CameraSetup, DetectStream, DetectedSet};
+use teachcam::pipeline::{CameraSetup, DetectStream, DetectedSet, FrameDetections};
 use teachcam::source::folder::FolderSource;
 use teachcam::source::{FrameSource, SourceCamera};
 use teachcam::track::gates::sample_frames;
@@ -168,15 +168,18 @@ pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result
 }
 
 /// A recording folder's frames detected: every set (one instant: each camera's frame, its
-/// time and blobs), the cameras in the order of each set's entries, and the rate.
+/// time and blobs), the cameras in the order of each set's entries, and the rate. `B` is
+/// [`Vec<Blob>`], or [`RoundnessChoices`] when the roundness floor is chosen afterwards.
 #[derive(Debug)]
-pub struct DetectedRecording {
+pub struct DetectedRecording<B = Vec<Blob>> {
     /// The detected cameras, in the order of [`DetectedSet::cameras`].
     pub cameras: Vec<String>,
     /// Frames per second (`--fps`, else recording.json, else the videos', else 30).
     pub fps: f64,
     /// The sets, in order.
-    pub sets: Vec<DetectedSet>,
+    pub sets: Vec<DetectedSet<B>>,
+    /// The number of sets the source announced before decoding, where it knew it.
+    pub len_hint: Option<usize>,
 }
 
 impl DetectedRecording {
@@ -196,14 +199,32 @@ impl DetectedRecording {
     }
 }
 
-/// Which frames of a recording to detect.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Frames {
-    /// Every frame.
-    All,
-    /// At most this many, spread evenly over the recording (its first ones when its length is
-    /// not known before decoding).
-    Sample(usize),
+impl DetectedRecording<RoundnessChoices> {
+    /// The recording as detected with roundness floor `min_roundness`; `None` below the floor
+    /// it was detected with.
+    #[must_use]
+    pub fn at(&self, min_roundness: f64) -> Option<DetectedRecording> {
+        Some(DetectedRecording {
+            cameras: self.cameras.clone(),
+            fps: self.fps,
+            sets: self
+                .sets
+                .iter()
+                .map(|set| set.at(min_roundness))
+                .collect::<Option<_>>()?,
+            len_hint: self.len_hint,
+        })
+    }
+}
+
+/// A sample of at most `at_most` sets of a source that announced `len_hint` sets: spread
+/// evenly over the recording, or its first ones when its length was not known.
+#[must_use]
+pub fn sampled_sets(len_hint: Option<usize>, at_most: usize) -> Vec<usize> {
+    match len_hint {
+        Some(count) => sample_frames(count, at_most),
+        None => (0..at_most).collect(),
+    }
 }
 
 /// Detects a recording folder's frames, PNG sub-folders and video files alike (CONTRACT,
@@ -215,23 +236,16 @@ pub enum Frames {
 /// # Errors
 /// Rejected data naming the folder, camera, frame or file that cannot be read, has another
 /// size, or is missing; what `cameras` returns.
-pub fn detect_folder(
+pub fn detect_folder<B: FrameDetections>(
     root: &Path,
     fps: Option<f64>,
-    frames: Frames,
     cameras: impl FnOnce(&[SourceCamera]) -> anyhow::Result<Vec<CameraSetup>>,
-) -> anyhow::Result<DetectedRecording> {
+) -> anyhow::Result<DetectedRecording<B>> {
     let mut source = FolderSource::open(root, fps).rejected()?;
-    if let Frames::Sample(at_most) = frames {
-        let wanted = match source.len_hint() {
-            Some(count) => sample_frames(count, at_most),
-            None => (0..at_most).collect(),
-        };
-        source = source.only_frames(&wanted);
-    }
+    let len_hint = source.len_hint();
     let setups = cameras(source.cameras())?;
     let progress = Progress::new("detect", source.len_hint().unwrap_or(0) as u64);
-    let mut stream = DetectStream::new(&mut source, setups).rejected()?;
+    let mut stream = DetectStream::<B>::detecting(&mut source, setups).rejected()?;
     let names = stream.camera_names();
     let fps = stream.fps();
     let mut sets = Vec::new();
@@ -244,6 +258,7 @@ pub fn detect_folder(
         cameras: names,
         fps,
         sets,
+        len_hint,
     })
 }
 
@@ -263,7 +278,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     inputs.extend(args.options.rig.as_deref());
     inputs.extend(args.options.tool.as_deref());
     check_outputs(&[Output::csv(&args.output)], &inputs)?;
-    let recording = detect_folder(&args.recording, None, Frames::All, |cameras| {
+    let recording = detect_folder(&args.recording, None, |cameras| {
         configs(&args.options, cameras)
     })?;
     write_atomically(&args.output, csv_text(&recording).as_bytes())?;

@@ -11,7 +11,7 @@ use teachcam::track::Tracker;
 use teachcam::track::gates::{GateOverrides, ROUNDNESS_FLOOR, roundness_gate, sample_frames};
 use teachcam::track::merged::{BlobShape, Shapes};
 
-use crate::cmd::detect::{Frames, detect_folder};
+use crate::cmd::detect::detect_folder;
 use crate::cmd::track::{ROUNDNESS_SAMPLE_FRAMES, measure_gates_from_sample};
 
 /// Say where a recording's frames are lost, what the data shows, and what to do.
@@ -76,7 +76,7 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
     }
     let rig = crate::load::rig(&args.rig)?;
     let tool = crate::load::tool(&args.tool)?;
-    let recording = detect_folder(&args.recording, None, Frames::All, |_| {
+    let recording = detect_folder(&args.recording, None, |_| {
         Ok(rig
             .cameras
             .iter()

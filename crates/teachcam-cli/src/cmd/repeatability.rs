@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::cmd::detect::{DetectOptions, Frames, configs, detect_folder};
+use crate::cmd::detect::{DetectOptions, DetectedRecording, configs, detect_folder};
 use teachcam::detect::{MarkerSpread, RepeatabilityConfig, repeatability};
 
 /// Repeatability of blob centres of static markers (the paper's Fig. 10).
@@ -57,7 +57,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         });
     }
     teachcam::io::check_outputs(&outputs, &[])?;
-    let recording = detect_folder(&args.recording, None, Frames::All, |cameras| {
+    let recording: DetectedRecording = detect_folder(&args.recording, None, |cameras| {
         configs(&args.options, cameras)
     })?;
     let study = RepeatabilityConfig {

@@ -1,11 +1,12 @@
 //! `teachcam track`: the tool's trajectory from a recording (paper §II).
 
+use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use teachcam::correspond::Views;
-use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
+use teachcam::detect::{CenterMethod, DetectConfig, RoundnessChoices, Threshold};
 use teachcam::identify::{IdentifyConfig, check_identifiable};
 use teachcam::io::detections::read_detections;
 use teachcam::io::recording::DEFAULT_FPS;
@@ -23,7 +24,7 @@ use teachcam::track::{FrameTrack, Tracker, guard_in_time, trajectory_from_tracks
 use teachcam::trajectory::{Status, Trajectory};
 
 use crate::Rejected;
-use crate::cmd::detect::{DetectedRecording, Frames, detect_folder};
+use crate::cmd::detect::{DetectedRecording, detect_folder, sampled_sets};
 
 pub use teachcam::track::uncertainty::rms;
 
@@ -50,7 +51,7 @@ pub fn measure_gates_from_sample(
     )
 }
 
-/// Frames whose images are detected twice to measure the roundness gate.
+/// Frames whose blobs (detected at the lowest floor) measure the roundness gate.
 pub const ROUNDNESS_SAMPLE_FRAMES: usize = 60;
 
 /// Frames tracked in the first pass that measures the other gates.
@@ -484,6 +485,7 @@ fn recording_from_detections(
         cameras: names.iter().map(|c| (*c).to_string()).collect(),
         fps: clock.fps,
         sets,
+        len_hint: Some(frames),
     };
     Ok((recording, gate))
 }
@@ -517,8 +519,8 @@ pub struct DetectedForTracking {
 }
 
 /// Detects every frame of a recording for tracking `tool` through `rig`: the roundness gate
-/// from a sample detected with the lowest floor (unless `min_roundness` overrides it), then
-/// every frame with it. `track` and `calibrate refine` both read recordings through this.
+/// from a sample detected with the lowest floor (unless `min_roundness` overrides it), every
+/// frame's blobs at it. `track` and `calibrate refine` both read recordings through this.
 ///
 /// # Errors
 /// `--near` not below `--far` (usage); the recording unreadable.
@@ -561,28 +563,37 @@ pub fn detect_for_tracking(
             .collect()
     };
 
-    // First pass: the roundness gate from a sample detected with the lowest floor.
-    let min_roundness = match min_roundness {
-        Some(_) => roundness_gate(&[], min_roundness),
+    let (recording, min_roundness) = match min_roundness {
+        Some(_) => {
+            let gate = roundness_gate(&[], min_roundness);
+            let detected = detect_folder(recording, flags.fps, |_| Ok(setups(gate.value)))?;
+            (detected, gate)
+        }
         None => {
-            let sample = detect_folder(
-                recording,
-                flags.fps,
-                Frames::Sample(ROUNDNESS_SAMPLE_FRAMES),
-                |_| Ok(setups(ROUNDNESS_FLOOR)),
-            )?;
-            let roundness: Vec<f64> = sample
+            // One pass at the lowest floor, each frame's blobs kept for every stricter one: the
+            // gate from a sample of them, then every frame at the gate, each decoded once.
+            let choices: DetectedRecording<RoundnessChoices> =
+                detect_folder(recording, flags.fps, |_| Ok(setups(ROUNDNESS_FLOOR)))?;
+            let sample: BTreeSet<usize> = sampled_sets(choices.len_hint, ROUNDNESS_SAMPLE_FRAMES)
+                .into_iter()
+                .collect();
+            let roundness: Vec<f64> = choices
                 .sets
                 .iter()
-                .flat_map(|s| s.cameras.iter().flatten())
-                .flat_map(|c| c.blobs.iter().map(|b| b.roundness))
+                .filter(|s| sample.contains(&s.index))
+                .filter_map(|s| s.at(ROUNDNESS_FLOOR))
+                .flat_map(|s| s.cameras.into_iter().flatten())
+                .flat_map(|c| c.blobs.into_iter().map(|b| b.roundness))
                 .collect();
-            roundness_gate(&roundness, None)
+            let gate = roundness_gate(&roundness, None);
+            let detected = match choices.at(gate.value) {
+                Some(detected) => detected,
+                // A gate below the floor (none is measured so): detect again with it.
+                None => detect_folder(recording, flags.fps, |_| Ok(setups(gate.value)))?,
+            };
+            (detected, gate)
         }
     };
-    let recording = detect_folder(recording, flags.fps, Frames::All, |_| {
-        Ok(setups(min_roundness.value))
-    })?;
     Ok(DetectedForTracking {
         recording,
         min_roundness,

@@ -38,9 +38,6 @@ pub struct FolderSource {
     len_hint: Option<usize>,
     next_index: usize,
     failed: bool,
-    /// When set, only these sets are delivered (a sample); the others are skipped undecoded
-    /// (PNG) or decoded and dropped (video).
-    keep: Option<std::collections::BTreeSet<usize>>,
 }
 
 /// The rate: `given` (`--fps`, else recording.json), else the videos' common rate, else
@@ -177,17 +174,7 @@ impl FolderSource {
                 .and_then(|l| l.into_iter().min()),
             next_index: 0,
             failed: false,
-            keep: None,
         })
-    }
-
-    /// Delivers only the sets whose index is in `frames` (e.g. a sample spread over the
-    /// recording), keeping their indices.
-    #[must_use]
-    pub fn only_frames(mut self, frames: &[usize]) -> Self {
-        self.len_hint = Some(frames.len());
-        self.keep = Some(frames.iter().copied().collect());
-        self
     }
 
     /// The folder.
@@ -266,24 +253,7 @@ impl FrameSource for FolderSource {
     }
 
     fn next_set(&mut self) -> Option<Result<FrameSet, SourceError>> {
-        loop {
-            let set = self.next_any()?;
-            let wanted = match (&set, &self.keep) {
-                (Ok(set), Some(keep)) => keep.contains(&set.index),
-                _ => true,
-            };
-            if wanted {
-                return Some(set);
-            }
-            if self
-                .keep
-                .as_ref()
-                .and_then(|k| k.last())
-                .is_some_and(|&last| self.next_index > last)
-            {
-                return None;
-            }
-        }
+        self.next_any()
     }
 
     fn stats(&self) -> SourceStats {

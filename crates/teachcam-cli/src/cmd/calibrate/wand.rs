@@ -15,7 +15,7 @@ use teachcam::io::{Output, check_outputs};
 use teachcam::pipeline::CameraSetup;
 
 use crate::Rejected;
-use crate::cmd::detect::{Frames, detect_folder};
+use crate::cmd::detect::detect_folder;
 
 /// The rig from a wand dance (and the world from a ground frame).
 ///
@@ -64,7 +64,7 @@ fn detect_views(
     marker_diameter_mm: f64,
     args: &WandArgs,
 ) -> anyhow::Result<Vec<Views>> {
-    let detected = detect_folder(recording, None, Frames::All, |_| {
+    let detected = detect_folder(recording, None, |_| {
         Ok(rig
             .cameras
             .iter()
