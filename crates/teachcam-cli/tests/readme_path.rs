@@ -11,6 +11,9 @@
 use std::path::Path;
 use std::process::Command;
 
+#[path = "support/report.rs"]
+mod report;
+
 /// The first ```sh block after the heading that starts with `heading`.
 fn shell_block(readme: &str, heading: &str) -> Vec<String> {
     let after = &readme[readme.find(heading).unwrap()..];
@@ -80,6 +83,12 @@ fn the_readme_path_runs_as_written() {
             out.status.success() || is_doctor,
             "README step failed: {line}\n{stdout}{stderr}"
         );
+        if args.first().is_some_and(|a| a == "report") {
+            // The README's file names (smooth.csv, rec/, rig.json): every figure is drawn.
+            assert!(!stderr.contains("missing"), "{line}\n{stderr}");
+            let page = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+            report::assert_every_figure_drawn(&page);
+        }
         if args.first().is_some_and(|a| a == "check") {
             assert!(
                 stdout.contains("ok: the robot can run this trajectory"),
@@ -89,7 +98,7 @@ fn the_readme_path_runs_as_written() {
         ran.push(args[0].clone());
     }
     eprintln!("ran: {}", ran.join(", "));
-    for step in ["calibrate", "track", "smooth", "check", "export"] {
+    for step in ["calibrate", "track", "smooth", "check", "export", "report"] {
         assert!(ran.iter().any(|r| r == step), "the path has no {step} step");
     }
     for file in [

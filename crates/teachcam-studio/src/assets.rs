@@ -16,3 +16,6 @@ pub const STUDIO_HTML: &str = include_str!("../web/studio/index.html");
 pub const STUDIO_JS: &str = include_str!("../web/studio/studio.js");
 /// The studio's style sheet.
 pub const STUDIO_CSS: &str = include_str!("../web/studio/studio.css");
+/// The review's drawing script: `window.teachcamReview.draw(container, figures)` draws the
+/// figure slots of `teachcam::report` with uPlot (the report page and the studio's Review tab).
+pub const REVIEW_JS: &str = include_str!("../web/review.js");

@@ -19,6 +19,7 @@ pub mod api;
 pub mod pipeline;
 pub mod preview;
 pub mod recorder;
+pub mod review;
 pub mod robot;
 pub mod security;
 pub mod state;

@@ -341,20 +341,6 @@ async fn record_and_stop_write_a_recording_folder_that_reads_back() {
     studio.finish();
 }
 
-/// The Python that runs `rapidchecker` (`.ci/run` names it in `TEACHCAM_RAPIDCHECKER_PYTHON`).
-fn rapidchecker_python() -> Option<std::path::PathBuf> {
-    std::env::var_os("TEACHCAM_RAPIDCHECKER_PYTHON")
-        .map(std::path::PathBuf::from)
-        .into_iter()
-        .chain([std::path::PathBuf::from("python3")])
-        .find(|python| {
-            std::process::Command::new(python)
-                .args(["-m", "rapidchecker", "--help"])
-                .output()
-                .is_ok_and(|o| o.status.success())
-        })
-}
-
 #[tokio::test(flavor = "multi_thread")]
 async fn the_suggested_work_object_passes_and_its_rapid_program_parses() {
     let out = tempfile::tempdir().unwrap();
@@ -438,27 +424,14 @@ async fn the_suggested_work_object_passes_and_its_rapid_program_parses() {
     let program = String::from_utf8(program).unwrap();
     assert!(program.starts_with("MODULE teachcam_studio"), "{program}");
     studio.finish();
-    let Some(python) = rapidchecker_python() else {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "rapidchecker is not installed (.ci/run installs it)"
-        );
-        eprintln!("skipped parsing: rapidchecker not installed (pip install rapidchecker)");
-        return;
-    };
     let file = out.path().join("teachcam_studio.mod");
     std::fs::write(&file, &program).unwrap();
-    let checked = std::process::Command::new(python)
-        .args(["-m", "rapidchecker"])
-        .arg(&file)
-        .output()
-        .unwrap();
-    assert!(
-        checked.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&checked.stdout),
-        String::from_utf8_lossy(&checked.stderr)
-    );
+    if let Some(Err(output)) = teachcam_testdata::rapidchecker(
+        "the_suggested_work_object_passes_and_its_rapid_program_parses",
+        &[file],
+    ) {
+        panic!("rapidchecker refuses the studio's RAPID: {output}");
+    }
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -477,5 +450,49 @@ async fn the_page_and_its_vendored_scripts_are_served_from_the_binary() {
         assert_eq!(status, StatusCode::OK, "{path}");
         assert!(String::from_utf8_lossy(&body).contains(needle), "{path}");
     }
+    studio.finish();
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn the_review_gives_the_takes_figures_at_the_asked_cut_off() {
+    let out = tempfile::tempdir().unwrap();
+    let studio = studio(out.path());
+    wait_for_frames(&studio, 40).await;
+    let (status, review) = json(
+        &studio,
+        request("GET", "/api/review?cutoff_hz=4", &[], Body::empty()),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{review}");
+    assert_eq!(review["cutoff_hz"], 4.0);
+    assert!(review["frames"].as_u64().unwrap() > 40, "{review}");
+    let ids: Vec<&str> = review["figures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(ids, ["components", "spectrum", "quality"]);
+    // The spectrum marks the asked cut-off; no slot is missing on a take with poses.
+    let spectrum = &review["figures"][1];
+    assert_eq!(spectrum["kind"], "plots", "{spectrum}");
+    assert!(spectrum.to_string().contains("cut-off 4 Hz"), "{spectrum}");
+    // A cut-off that is not a number, and one at the simulator's Nyquist rate (30 fps).
+    let (status, body) = json(
+        &studio,
+        request("GET", "/api/review?cutoff_hz=fast", &[], Body::empty()),
+    )
+    .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{body}");
+    assert!(
+        body["error"].as_str().unwrap().contains("cutoff_hz"),
+        "{body}"
+    );
+    let (status, body) = json(
+        &studio,
+        request("GET", "/api/review?cutoff_hz=15", &[], Body::empty()),
+    )
+    .await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{body}");
     studio.finish();
 }

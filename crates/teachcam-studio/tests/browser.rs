@@ -65,21 +65,6 @@ async fn the_browser_draws_webgl_and_reports_console_errors() {
     browser.close().await;
 }
 
-/// The Python that runs `rapidchecker` (`.ci/run` installs it and names it in
-/// `TEACHCAM_RAPIDCHECKER_PYTHON`), else `python3` when it has the package.
-fn rapidchecker_python() -> Option<std::path::PathBuf> {
-    std::env::var_os("TEACHCAM_RAPIDCHECKER_PYTHON")
-        .map(std::path::PathBuf::from)
-        .into_iter()
-        .chain([std::path::PathBuf::from("python3")])
-        .find(|python| {
-            std::process::Command::new(python)
-                .args(["-m", "rapidchecker", "--help"])
-                .output()
-                .is_ok_and(|o| o.status.success())
-        })
-}
-
 /// Fails the check with a message unless the condition holds (the browser is closed either
 /// way: a panic inside the checks would leave Chromium running).
 macro_rules! ensure {
@@ -171,6 +156,68 @@ async fn studio_checks(
         "the 3-D canvas shows the tool: {}",
         browser.eval(&format!("return {studio}")).await
     );
+    // Review: the take's figures drawn at the slider's cut-off; moving the slider re-smooths
+    // and the plotted smoothed curve changes.
+    browser
+        .eval("document.querySelector('nav button[data-tab=review]').click(); return true")
+        .await;
+    let drawn_at = |cutoff: &str| {
+        format!(
+            "return {studio}.reviewDraws > 0 && {studio}.reviewCutoffHz === {cutoff} \
+             && document.querySelectorAll('#review section[data-figure=components] .uplot canvas').length > 0"
+        )
+    };
+    ensure!(
+        browser
+            .wait_for(&drawn_at("6"), Duration::from_secs(20))
+            .await,
+        "the review draws the take at 6 Hz: {}",
+        browser
+            .eval("return document.getElementById('review-state').textContent")
+            .await
+    );
+    // What the page plotted: the first component's raw and smoothed series (uPlot's own data)
+    // and the RMS of their difference; and the cut-off the spectrum marks.
+    let plotted = "const plot = document.getElementById('review').teachcamPlots
+            .find(p => p.root.closest('section[data-figure=components]'));
+        const k = (name) => plot.series.findIndex(s => s.label === name);
+        const raw = plot.data[k('raw')], smoothed = plot.data[k('smoothed')];
+        let sum = 0, n = 0;
+        for (let i = 0; i < raw.length; i += 1) {
+            if (raw[i] != null && smoothed[i] != null) { sum += (raw[i] - smoothed[i]) ** 2; n += 1; }
+        }
+        const spectrum = window.teachcamStudio.reviewFigures.find(f => f.id === 'spectrum');
+        const marks = spectrum.panels.flatMap(p => p.marks.map(m => m.label));
+        return {residual_rms_mm: Math.sqrt(sum / n), n, marks};";
+    let at_6_hz = browser.eval(plotted).await;
+    browser
+        .eval("const slider = document.getElementById('cutoff'); slider.value = '2'; slider.dispatchEvent(new Event('input')); return true")
+        .await;
+    ensure!(
+        browser
+            .wait_for(&drawn_at("2"), Duration::from_secs(20))
+            .await,
+        "the review redraws at 2 Hz: {}",
+        browser
+            .eval("return document.getElementById('review-state').textContent")
+            .await
+    );
+    let at_2_hz = browser.eval(plotted).await;
+    eprintln!("{test}: review at 6 Hz {at_6_hz}, at 2 Hz {at_2_hz}");
+    // The take is the same stroke played back and forth, so the two windows hold the same
+    // motion: a 2 Hz low-pass takes the stroke's 2-6 Hz content away as well as the noise
+    // (0.02 mm), so what it removes must be clearly more than what 6 Hz removes.
+    let rms = |v: &serde_json::Value| v["residual_rms_mm"].as_f64().unwrap_or(f64::NAN);
+    ensure!(
+        at_6_hz["n"].as_u64().is_some_and(|n| n > 30) && rms(&at_2_hz) > 2.0 * rms(&at_6_hz),
+        "moving the cut-off from 6 to 2 Hz changes the smoothed curve: {at_6_hz} then {at_2_hz}"
+    );
+    ensure!(
+        at_2_hz["marks"]
+            .as_array()
+            .is_some_and(|m| m.iter().any(|l| l == "cut-off 2 Hz")),
+        "the spectrum marks the new cut-off: {at_2_hz}"
+    );
     // Robot: check, take the suggested work object, check again: the arm follows the path.
     browser
         .eval("document.querySelector('nav button[data-tab=robot]').click(); document.getElementById('robot-check').click(); return true")
@@ -214,30 +261,217 @@ async fn studio_checks(
         "a RAPID module: {}",
         &rapid[..rapid.len().min(200)]
     );
-    match rapidchecker_python() {
-        Some(python) => {
-            let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
-            let path = dir.path().join("teachcam_studio.mod");
-            std::fs::write(&path, &rapid).map_err(|e| e.to_string())?;
-            let checked = std::process::Command::new(python)
-                .args(["-m", "rapidchecker"])
-                .arg(&path)
-                .output()
-                .map_err(|e| format!("rapidchecker runs: {e}"))?;
-            ensure!(
-                checked.status.success(),
-                "rapidchecker refuses the download: {}{}",
-                String::from_utf8_lossy(&checked.stdout),
-                String::from_utf8_lossy(&checked.stderr)
-            );
-        }
-        None => {
-            ensure!(
-                std::env::var("CI").as_deref() != Ok("true"),
-                "rapidchecker is not installed (.ci/run installs it)"
-            );
-            eprintln!("{test}: RAPID not parsed: rapidchecker not installed");
-        }
+    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+    let path = dir.path().join("teachcam_studio.mod");
+    std::fs::write(&path, &rapid).map_err(|e| e.to_string())?;
+    if let Some(Err(output)) = teachcam_testdata::rapidchecker(test, &[path]) {
+        return Err(format!("rapidchecker refuses the download: {output}"));
     }
     Ok(())
+}
+
+/// A small simulated run (the paper's rig, the first 36 frames of its stroke rendered; the
+/// truth with 0.02 mm of noise as the tracked trajectory) and its report, written to `dir`.
+#[expect(
+    clippy::expect_used,
+    reason = "a test fails loudly on a broken fixture"
+)]
+fn simulated_report(dir: &std::path::Path) -> teachcam::report::Report {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    use teachcam::report::{Absent, Header, InputFile, ReportInputs, build_report};
+
+    let mut scene = teachcam::sim::build_scene(teachcam::sim::Scenario::Paper, 1);
+    scene.truth.samples.truncate(36);
+    let recording = dir.join("recording");
+    teachcam::sim::write_scene(&scene, &recording, 1, &|| {}).expect("the scene renders");
+    let mut raw = scene.truth.clone();
+    let normal = Normal::new(0.0, 0.02).expect("a normal distribution");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
+    for s in &mut raw.samples {
+        let p = s.pose.as_mut().expect("the truth has every pose");
+        let tip_in_tool = p.world_from_tool.inverse_transform_point(&p.tip_in_world);
+        let mut t = p.world_from_tool.translation.vector;
+        for c in 0..3 {
+            t[c] += normal.sample(&mut rng);
+        }
+        p.world_from_tool = teachcam::geometry::pose_from_parts(t, p.world_from_tool.rotation);
+        p.tip_in_world = p.world_from_tool * tip_in_tool;
+        s.tip_std_mm = Some(0.02);
+    }
+    let input = |role: &str, path: &std::path::Path| InputFile {
+        role: role.into(),
+        path: Some(path.display().to_string()),
+        note: String::new(),
+    };
+    build_report(&ReportInputs {
+        header: Header::now(vec![
+            input("recording", &recording),
+            InputFile {
+                role: "smoothed trajectory".into(),
+                path: None,
+                note: "no smoothed.csv <here> & there".into(),
+            },
+        ]),
+        raw: &raw,
+        // A missing input: its slot must say why, and the page must draw that line.
+        smoothed: Err(Absent("no smoothed.csv".into())),
+        truth: Ok(&scene.truth),
+        rig: Ok(&scene.rig),
+        tool: Ok(&scene.tool),
+        recording: Ok(recording.as_path()),
+        base_from_wobj: Err(Absent("no work object </script> given (--wobj)".into())),
+        cutoff_hz: 10.0,
+        study_seed: 1,
+        extra_summary: Vec::new(),
+    })
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn the_report_draws_every_figure_and_zooms() {
+    let test = "the_report_draws_every_figure_and_zooms";
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let report = simulated_report(dir.path());
+    let page = dir.path().join("report.html");
+    let html = teachcam_studio::report_page::render(&report).expect("the page renders");
+    std::fs::write(&page, &html).expect("writing the page");
+    if let Some(keep) = std::env::var_os("TEACHCAM_KEEP_REPORT") {
+        std::fs::write(keep, &html).expect("keeping the page");
+    }
+    let Some(browser) = Browser::open(test).await else {
+        return;
+    };
+    browser.open_file(&page).await;
+    assert!(
+        browser
+            .wait_for(
+                "return document.querySelectorAll('#figures section.tc-figure').length > 0",
+                Duration::from_secs(20)
+            )
+            .await,
+        "the figures were drawn"
+    );
+    let errors = browser.errors().await;
+    assert!(errors.is_empty(), "console errors: {errors:?}");
+    // Every slot of the model has its section; every panel its uPlot canvas; every missing
+    // slot its line.
+    let drawn = browser
+        .eval(
+            "return Array.from(document.querySelectorAll('#figures section.tc-figure')).map(s => ({
+                id: s.dataset.figure,
+                kind: s.dataset.kind,
+                canvases: s.querySelectorAll('.uplot canvas').length,
+                images: Array.from(s.querySelectorAll('img')).filter(i => i.complete && i.naturalWidth > 0).length,
+                missing: (s.querySelector('.tc-missing') || {}).textContent || null,
+            }))",
+        )
+        .await;
+    let drawn = drawn.as_array().expect("a list of sections");
+    assert_eq!(drawn.len(), report.figures.len(), "{drawn:?}");
+    for (slot, section) in report.figures.iter().zip(drawn) {
+        assert_eq!(section["id"], slot.id.name(), "{section}");
+        match &slot.body {
+            teachcam::report::FigureBody::Plots { panels } => {
+                assert_eq!(section["canvases"], panels.len(), "{section}");
+            }
+            teachcam::report::FigureBody::Images { images } => {
+                assert_eq!(section["images"], images.len(), "{section}");
+            }
+            teachcam::report::FigureBody::Missing { reason } => {
+                assert_eq!(
+                    section["missing"],
+                    format!("Missing: {reason}"),
+                    "{section}"
+                );
+            }
+        }
+    }
+    let robot = drawn
+        .iter()
+        .find(|s| s["id"] == "robot")
+        .expect("the robot slot");
+    assert!(
+        robot["missing"]
+            .as_str()
+            .unwrap_or_default()
+            .contains("</script>")
+    );
+    // The paths are to scale: as many millimetres per pixel across as up.
+    let aspect = browser
+        .eval(
+            "const u = document.querySelector('section[data-figure=paths] .uplot');
+             const section = document.getElementById('figures');
+             const p = section.teachcamPlots.find(p => p.root === u);
+             return [(p.scales.x.max - p.scales.x.min) / p.bbox.width,
+                     (p.scales.y.max - p.scales.y.min) / p.bbox.height];",
+        )
+        .await;
+    let (across, up) = (
+        aspect[0].as_f64().unwrap_or(0.0),
+        aspect[1].as_f64().unwrap_or(1.0),
+    );
+    assert!((across - up).abs() < 1e-9 * across.abs(), "{aspect}");
+    // Hover the first component plot: its legend shows the values under the cursor.
+    let over = browser
+        .client
+        .find(fantoccini::Locator::Css(
+            "section[data-figure=components] .u-over",
+        ))
+        .await
+        .expect("the first plot's overlay");
+    let before = browser
+        .eval("return document.querySelector('section[data-figure=components] .u-legend').textContent")
+        .await;
+    // Drag across the middle of the plot: a zoom on x.
+    use fantoccini::actions::InputSource as _;
+    let actions = fantoccini::actions::MouseActions::new("mouse".into())
+        .then(fantoccini::actions::PointerAction::MoveToElement {
+            element: over.clone(),
+            duration: None,
+            x: -100.0,
+            y: 0.0,
+        })
+        .then(fantoccini::actions::PointerAction::Down {
+            button: fantoccini::actions::MOUSE_BUTTON_LEFT,
+        })
+        .then(fantoccini::actions::PointerAction::MoveToElement {
+            element: over,
+            duration: Some(Duration::from_millis(200)),
+            x: 100.0,
+            y: 0.0,
+        })
+        .then(fantoccini::actions::PointerAction::Up {
+            button: fantoccini::actions::MOUSE_BUTTON_LEFT,
+        });
+    browser
+        .client
+        .perform_actions(actions)
+        .await
+        .expect("the drag");
+    let after = browser
+        .eval(
+            "const section = document.getElementById('figures');
+             const u = document.querySelector('section[data-figure=components] .uplot');
+             const p = section.teachcamPlots.find(p => p.root === u);
+             return [p.scales.x.min, p.scales.x.max, p.data[0][0], p.data[0][p.data[0].length - 1],
+                     document.querySelector('section[data-figure=components] .u-legend').textContent];",
+        )
+        .await;
+    let (min, max, first, last) = (
+        after[0].as_f64().unwrap_or(0.0),
+        after[1].as_f64().unwrap_or(0.0),
+        after[2].as_f64().unwrap_or(0.0),
+        after[3].as_f64().unwrap_or(0.0),
+    );
+    assert!(
+        min > first && max < last && max > min,
+        "zoomed to {after} from {first}..{last}"
+    );
+    assert_ne!(
+        before, after[4],
+        "the legend shows the values under the cursor"
+    );
+    let errors = browser.errors().await;
+    assert!(errors.is_empty(), "console errors: {errors:?}");
+    browser.close().await;
 }

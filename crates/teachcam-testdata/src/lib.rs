@@ -1,8 +1,9 @@
 //! Where the tests find the real third-party data (`../shared/data` beside the clone: OpenCV's
-//! chessboard photographs, Zhang's data, C3D files...) and the reproducers of past wrong
-//! answers (`../shared/repro`). One function serves every test so that they all treat a
-//! missing folder the same way: under CI (`CI` set) it is a failure, elsewhere the test says it
-//! was skipped and why.
+//! chessboard photographs, Zhang's data, C3D files...), the reproducers of past wrong answers
+//! (`../shared/repro`), and the independent checkers they run programs through
+//! (`rapidchecker`). One function serves every test so that they all treat a missing folder or
+//! checker the same way: under CI (`CI` set) it is a failure, elsewhere the test says it was
+//! skipped and why.
 
 use std::path::PathBuf;
 
@@ -42,4 +43,55 @@ fn shared(kind: &str, folder: &str) -> Option<PathBuf> {
     );
     eprintln!("skipped: test {kind} folder {} is missing", dir.display());
     None
+}
+
+/// The Python that runs `rapidchecker` (PyPI, an independent RAPID parser): the one `.ci/run`
+/// installs in a venv and names in `TEACHCAM_RAPIDCHECKER_PYTHON`, else `python3` when it has
+/// the package.
+fn rapidchecker_python() -> Option<PathBuf> {
+    std::env::var_os("TEACHCAM_RAPIDCHECKER_PYTHON")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([PathBuf::from("python3")])
+        .find(|python| {
+            std::process::Command::new(python)
+                .args(["-m", "rapidchecker", "--help"])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+}
+
+/// RAPID modules through `rapidchecker`: `Some(Ok(()))` when it parses every file,
+/// `Some(Err(what it printed))` when it refuses one, `None` when it is not installed (`test`
+/// then says it skipped the check).
+///
+/// # Panics
+/// When the checker is not installed and `CI` is `true` (`.ci/run` installs it).
+#[must_use]
+#[expect(clippy::print_stderr, reason = "a skipped check says why")]
+pub fn rapidchecker(test: &str, files: &[PathBuf]) -> Option<Result<(), String>> {
+    let Some(python) = rapidchecker_python() else {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "{test}: rapidchecker is not installed (.ci/run installs it)"
+        );
+        eprintln!(
+            "{test}: RAPID not parsed: rapidchecker not installed (pip install rapidchecker)"
+        );
+        return None;
+    };
+    let mut command = std::process::Command::new(python);
+    command.args(["-m", "rapidchecker"]).args(files);
+    if let Some(dir) = files.first().and_then(|f| f.parent()) {
+        command.current_dir(dir);
+    }
+    Some(match command.output() {
+        Ok(out) if out.status.success() => Ok(()),
+        Ok(out) => Err(format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        )),
+        Err(e) => Err(format!("rapidchecker does not run: {e}")),
+    })
 }

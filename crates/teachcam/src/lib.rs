@@ -43,6 +43,8 @@
 //! - [`source`]: where frames come from: recording folders (PNG or video via FFmpeg), V4L2
 //!   cameras, the simulator at a rate; pairing across cameras.
 //! - [`pipeline`]: the conductor: a source's frames detected and tracked as they come.
+//! - [`report`]: what a run's report and the studio's review show (figures as data, a typed
+//!   summary), computed once for every front end.
 
 pub mod geometry;
 pub mod camera;
@@ -66,3 +68,4 @@ pub mod vendor;
 pub mod sim;
 pub mod source;
 pub mod pipeline;
+pub mod report;

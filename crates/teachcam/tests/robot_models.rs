@@ -789,21 +789,6 @@ fn krl_programs_have_kukas_structure() {
     }
 }
 
-/// The Python that runs `rapidchecker` (PyPI; `.ci/run` installs it in a venv and names it in
-/// `TEACHCAM_RAPIDCHECKER_PYTHON`), else `python3` when it has the package; `None` otherwise.
-fn rapidchecker_python() -> Option<std::path::PathBuf> {
-    let candidates = std::env::var_os("TEACHCAM_RAPIDCHECKER_PYTHON")
-        .map(std::path::PathBuf::from)
-        .into_iter()
-        .chain([std::path::PathBuf::from("python3")]);
-    candidates.into_iter().find(|python| {
-        std::process::Command::new(python)
-            .args(["-m", "rapidchecker", "--help"])
-            .output()
-            .is_ok_and(|o| o.status.success())
-    })
-}
-
 /// RAPID modules through an independent RAPID parser, `rapidchecker` (grammar and format):
 /// the golden stroke, and the painting loop's first moves with a given tool load split into
 /// routines. Skipped (said so) where the checker is not installed; under CI=true its absence
@@ -812,14 +797,6 @@ fn rapidchecker_python() -> Option<std::path::PathBuf> {
 fn rapid_modules_pass_rapidchecker() {
     use teachcam::robot::program::ToolLoad;
     use teachcam::robot::rapid::{RapidConfig, rapid_module};
-    let Some(python) = rapidchecker_python() else {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "rapidchecker is not installed (.ci/run installs it)"
-        );
-        eprintln!("skipped: rapidchecker not installed (pip install rapidchecker)");
-        return;
-    };
     let dir = tempfile::tempdir().unwrap();
     let golden = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/robot/stroke.mod"),
@@ -850,32 +827,21 @@ fn rapid_modules_pass_rapidchecker() {
         std::fs::write(&path, text).unwrap();
         files.push(path);
     }
-    let out = std::process::Command::new(&python)
-        .args(["-m", "rapidchecker"])
-        .args(&files)
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let test = "rapid_modules_pass_rapidchecker";
+    let Some(parsed) = teachcam_testdata::rapidchecker(test, &files) else {
+        return;
+    };
+    if let Err(output) = parsed {
+        panic!("{output}");
+    }
     // The checker can fail: a comma where RAPID wants a semicolon is refused.
     let broken = dir.path().join("broken.mod");
     let text = std::fs::read_to_string(&files[0])
         .unwrap()
         .replacen("ENDPROC", "ENDPROC,", 1);
     std::fs::write(&broken, text).unwrap();
-    let out = std::process::Command::new(&python)
-        .args(["-m", "rapidchecker"])
-        .arg(&broken)
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
     assert!(
-        !out.status.success(),
+        teachcam_testdata::rapidchecker(test, &[broken]).is_some_and(|r| r.is_err()),
         "rapidchecker accepted a broken module"
     );
 }

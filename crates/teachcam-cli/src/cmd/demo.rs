@@ -218,11 +218,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
     // 6. The report.
     let start = Instant::now();
-    super::report::write_report(&super::report::Args {
-        run_dir: out.clone(),
-        output: None,
-        wobj: None,
-    })?;
+    super::report::write_report(&super::report::Args::of(out.clone()))?;
     let mut summary = summary;
     summary
         .stage_seconds

@@ -8,7 +8,7 @@
 //! | `GET /api/live` (WebSocket) | the newest tracked frame, binary ([`super::preview`]) |
 //! | `POST /api/controls` | `{"threshold": N \| "auto", "exposure": X}` |
 //! | `POST /api/record`, `POST /api/stop` | a recording folder into the output folder |
-//! | `GET /api/review?cutoff_hz=X` | the take's review figures at that cut-off |
+//! | `GET /api/review?cutoff_hz=X` | `{frames, cutoff_hz, figures}`: the take's review figures at that cut-off |
 //! | `GET /api/robot?robot=&wobj=&tcp=&cutoff_hz=` | the take checked on a robot, joint path |
 //! | `GET /api/export/{rapid\|krl\|krl-dat\|urscript}?...` | the robot program, as a download |
 
@@ -61,12 +61,14 @@ pub fn router(studio: Studio) -> Router {
             "/vendor/uplot/uPlot.min.css",
             get(|| async { page(assets::UPLOT_CSS, CSS) }),
         )
+        .route("/review.js", get(|| async { page(assets::REVIEW_JS, JS) }))
         .route("/api/status", get(status))
         .route("/api/scene", get(scene))
         .route("/api/live", get(live))
         .route("/api/controls", post(controls))
         .route("/api/record", post(record))
         .route("/api/stop", post(stop))
+        .route("/api/review", get(super::review::review))
         .route("/api/robot", get(super::robot::robot))
         .route("/api/export/{dialect}", get(super::robot::export))
         .fallback(not_found)

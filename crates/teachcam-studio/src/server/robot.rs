@@ -10,6 +10,7 @@ use axum::http::header;
 use axum::response::{IntoResponse, Response};
 use serde_json::{Value, json};
 use teachcam::geometry::{Pose, parse_pose};
+use teachcam::report::smooth_for_review;
 use teachcam::robot::check::{CheckConfig, CheckReport, Suggestion, check_path};
 use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
 use teachcam::robot::kinematics::{Maker, Robot, link_points};
@@ -19,10 +20,10 @@ use teachcam::robot::rapid::{RapidConfig, rapid_module};
 use teachcam::robot::simplify::SimplifyConfig;
 use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
 use teachcam::robot::{Cell, pose_text, tcp_targets};
-use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, smooth};
 use teachcam::trajectory::Trajectory;
 
 use super::Studio;
+use super::review::take_with_truth;
 use super::security::ApiError;
 
 /// The cut-off used when the page gives none: the paper's 10 Hz.
@@ -74,25 +75,11 @@ pub fn cutoff(text: Option<&str>) -> Result<f64, ApiError> {
         })
 }
 
-/// The take smoothed at `cutoff_hz` (outliers dropped first).
+/// The take smoothed at `cutoff_hz` as the review smooths it (outliers dropped first).
 pub fn smoothed_take(studio: &Studio, cutoff_hz: f64) -> Result<Trajectory, ApiError> {
-    let mut take = studio.live().take.trajectory();
-    if take.samples.iter().all(|s| s.pose.is_none()) {
-        return Err(ApiError::conflict(
-            "the take has no pose yet: let the source run, or record one",
-        ));
-    }
-    take.drop_outliers();
-    let config = SmoothConfig {
-        method: Method::Lowpass {
-            cutoff_hz,
-            order: 2,
-            convention: CutoffConvention::SinglePass,
-        },
-        short_runs: ShortRuns::Gap,
-        ..SmoothConfig::default()
-    };
-    smooth(&take, &config).map_err(|e| ApiError::unprocessable(format!("smoothing: {e}")))
+    let (take, _) = take_with_truth(studio)?;
+    smooth_for_review(&take, cutoff_hz)
+        .map_err(|e| ApiError::unprocessable(format!("smoothing: {e}")))
 }
 
 fn pose_field(query: Option<&str>, field: &str) -> Result<Pose, ApiError> {

@@ -18,6 +18,7 @@ const studio = (window.teachcamStudio = {
   reviewDraws: 0, // review figures drawn
   reviewCutoffHz: null,
   reviewSignature: null, // a digest of the plotted review data (changes when the curve does)
+  reviewFigures: null, // the review's figure slots last drawn
   status: null, // the last /api/status
   frameMs: 0, // smoothed time to draw a live frame on the camera canvases, ms
   renderMs: 0, // smoothed time of a 3-D render, ms
@@ -641,15 +642,17 @@ async function drawReview() {
   const serial = ++reviewSerial;
   $("review-state").textContent = "smoothing…";
   try {
-    const figures = await api(`/api/review?cutoff_hz=${encodeURIComponent(cutoff)}`);
+    const review = await api(`/api/review?cutoff_hz=${encodeURIComponent(cutoff)}`);
     if (serial !== reviewSerial) return;
+    const figures = review.figures;
     window.teachcamReview.draw($("review"), figures);
     studio.reviewDraws += 1;
     studio.reviewCutoffHz = Number(cutoff);
     studio.reviewSignature = digest(figures);
+    studio.reviewFigures = figures;
     $("review").dataset.draws = studio.reviewDraws;
     $("review").dataset.signature = studio.reviewSignature;
-    $("review-state").textContent = `${figures.frames ?? ""} frames of the take, cut-off ${Number(cutoff).toFixed(1)} Hz`;
+    $("review-state").textContent = `${review.frames} frames of the take, cut-off ${Number(cutoff).toFixed(1)} Hz`;
   } catch (error) {
     $("review-state").textContent = error.message;
   }

@@ -1,0 +1,66 @@
+//! The take under review at the page's cut-off: the library's review figures
+//! ([`teachcam::report::review`]: components raw / smoothed with the residual, the windowed
+//! spectrum with the cut-off marked, `tip_std_mm` and status), drawn by the same script as the
+//! report (`web/review.js`). Nothing is computed here but which frames form the take.
+
+use axum::extract::{Query, State};
+use serde_json::{Value, json};
+use teachcam::report::review as review_figures;
+use teachcam::trajectory::Trajectory;
+
+use super::Studio;
+use super::robot::cutoff;
+use super::security::ApiError;
+
+/// The query of `/api/review`.
+#[derive(Debug, Default, serde::Deserialize)]
+pub struct ReviewQuery {
+    /// The smoothing cut-off, Hz (10 when absent).
+    cutoff_hz: Option<String>,
+    /// The token, when given in the query (checked by the guard).
+    #[serde(rename = "token")]
+    _token: Option<String>,
+}
+
+/// The take as a trajectory, refused while it holds no pose, and the simulator's truth when
+/// the take is a whole pass of the recording the truth belongs to (its frames start at 0).
+pub fn take_with_truth(studio: &Studio) -> Result<(Trajectory, Option<Trajectory>), ApiError> {
+    let (take, from_first_frame) = {
+        let live = studio.live();
+        let first = live.take.samples.front().map(|s| s.frame.0);
+        (live.take.trajectory(), first == Some(0))
+    };
+    if take.samples.iter().all(|s| s.pose.is_none()) {
+        return Err(ApiError::conflict(
+            "the take has no pose yet: let the source run, or record one",
+        ));
+    }
+    let truth = studio
+        .config()
+        .truth
+        .clone()
+        .filter(|truth| from_first_frame && truth.len() >= take.len());
+    Ok((take, truth))
+}
+
+/// `GET /api/review?cutoff_hz=X`: `{frames, cutoff_hz, figures}`.
+pub async fn review(
+    State(studio): State<Studio>,
+    Query(query): Query<ReviewQuery>,
+) -> Result<axum::Json<Value>, ApiError> {
+    let cutoff_hz = cutoff(query.cutoff_hz.as_deref())?;
+    let (take, truth) = take_with_truth(&studio)?;
+    let frames = take.len();
+    let figures =
+        tokio::task::spawn_blocking(move || review_figures(&take, cutoff_hz, truth.as_ref()))
+            .await
+            .map_err(|e| ApiError::internal(e.to_string()))?
+            .map_err(|e| {
+                ApiError::unprocessable(format!("smoothing the take at {cutoff_hz} Hz: {e}"))
+            })?;
+    Ok(axum::Json(json!({
+        "frames": frames,
+        "cutoff_hz": cutoff_hz,
+        "figures": figures,
+    })))
+}
