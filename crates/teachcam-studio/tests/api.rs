@@ -472,7 +472,10 @@ async fn the_review_gives_the_takes_figures_at_the_asked_cut_off() {
         .iter()
         .map(|f| f["id"].as_str().unwrap())
         .collect();
-    assert_eq!(ids, ["components", "spectrum", "quality"]);
+    assert_eq!(
+        ids,
+        ["components", "spectrum", "quality", "smoothing_study"]
+    );
     // The spectrum marks the asked cut-off; no slot is missing on a take with poses.
     let spectrum = &review["figures"][1];
     assert_eq!(spectrum["kind"], "plots", "{spectrum}");

@@ -1,11 +1,15 @@
 //! The take under review at the page's cut-off: the library's review figures
 //! ([`teachcam::report::review`]: components raw / smoothed with the residual, the windowed
-//! spectrum with the cut-off marked, `tip_std_mm` and status), drawn by the same script as the
-//! report (`web/review.js`). Nothing is computed here but which frames form the take.
+//! spectrum with the cut-off marked, `tip_std_mm` and status), then the paper's smoothing
+//! comparison (the report's figure, the same for every take: made once), drawn by the same
+//! script as the report (`web/review.js`). Nothing is computed here but which frames form the
+//! take.
+
+use std::sync::OnceLock;
 
 use axum::extract::{Query, State};
 use serde_json::{Value, json};
-use teachcam::report::review as review_figures;
+use teachcam::report::{FigureSlot, figures::smoothing_study, review as review_figures};
 use teachcam::trajectory::Trajectory;
 
 use super::Studio;
@@ -43,6 +47,16 @@ pub fn take_with_truth(studio: &Studio) -> Result<(Trajectory, Option<Trajectory
     Ok((take, truth))
 }
 
+/// The seed of the smoothing comparison's noise: the report's (`teachcam smoothing-study
+/// --seed 1` gives the same numbers).
+const STUDY_SEED: u64 = 1;
+
+/// The paper's smoothing comparison, made on first use.
+fn study() -> &'static FigureSlot {
+    static STUDY: OnceLock<FigureSlot> = OnceLock::new();
+    STUDY.get_or_init(|| smoothing_study(STUDY_SEED))
+}
+
 /// `GET /api/review?cutoff_hz=X`: `{frames, cutoff_hz, figures}`.
 pub async fn review(
     State(studio): State<Studio>,
@@ -51,13 +65,15 @@ pub async fn review(
     let cutoff_hz = cutoff(query.cutoff_hz.as_deref())?;
     let (take, truth) = take_with_truth(&studio)?;
     let frames = take.len();
-    let figures =
-        tokio::task::spawn_blocking(move || review_figures(&take, cutoff_hz, truth.as_ref()))
-            .await
-            .map_err(|e| ApiError::internal(e.to_string()))?
-            .map_err(|e| {
-                ApiError::unprocessable(format!("smoothing the take at {cutoff_hz} Hz: {e}"))
-            })?;
+    let figures = tokio::task::spawn_blocking(move || {
+        review_figures(&take, cutoff_hz, truth.as_ref()).map(|mut figures| {
+            figures.push(study().clone());
+            figures
+        })
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))?
+    .map_err(|e| ApiError::unprocessable(format!("smoothing the take at {cutoff_hz} Hz: {e}")))?;
     Ok(axum::Json(json!({
         "frames": frames,
         "cutoff_hz": cutoff_hz,

@@ -56,7 +56,13 @@ for (const button of document.querySelectorAll("nav button")) {
     for (const tab of document.querySelectorAll(".tab")) tab.classList.toggle("active", tab.id === `tab-${button.dataset.tab}`);
     if (button.dataset.tab === "live") resizeScene();
     if (button.dataset.tab === "review") requestReview();
+    history.replaceState(null, "", `${location.search}#${button.dataset.tab}`);
   });
+}
+// A link to a tab (`#review`, `#robot`) opens it.
+function openTabOfLink() {
+  const button = document.querySelector(`nav button[data-tab="${location.hash.slice(1)}"]`);
+  if (button) button.click();
 }
 
 // ---- cameras ----
@@ -637,6 +643,8 @@ async function drawReview() {
   }
   if (!studio.status || studio.status.take_frames < 30) {
     $("review-state").textContent = "waiting for a take (let the source run, or record one)";
+    // Ask again while the tab is open: the take grows as frames are tracked.
+    if ($("tab-review").classList.contains("active")) reviewTimer = setTimeout(drawReview, 1000);
     return;
   }
   const serial = ++reviewSerial;
@@ -674,3 +682,4 @@ loadScene()
   });
 pollStatus();
 setInterval(pollStatus, 1000);
+openTabOfLink();
