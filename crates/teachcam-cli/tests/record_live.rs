@@ -88,12 +88,23 @@ fn ctrl_c_ends_a_recording_with_whole_frames_and_a_valid_folder() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Rendering ahead takes a few seconds; then frames are written at 30 Hz.
+    // Rendering ahead takes a few seconds; then frames are written at 30 Hz, into a staging
+    // folder beside `rec` (`.rec.teachcam-tmp-PID`): `rec` appears whole, on stop.
     let started = std::time::Instant::now();
-    while !rec.join("cam2").join("000003.png").exists() {
-        assert!(started.elapsed().as_secs() < 120, "no frames written");
+    let staged_frame = || {
+        std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter_map(Result::ok)
+            .any(|e| e.path().join("cam2").join("000003.png").exists())
+    };
+    while !staged_frame() {
+        if started.elapsed().as_secs() > 120 {
+            let _ = Command::new("kill").arg(child.id().to_string()).status();
+            panic!("no frames written in 120 s");
+        }
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
+    assert!(!rec.exists(), "the recording appears only when it is whole");
     let status = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()

@@ -9,6 +9,7 @@ pub mod detections;
 pub mod output;
 pub mod plausible;
 pub mod recording;
+pub mod recording_writer;
 pub mod rig;
 pub mod robot;
 pub mod tool;

@@ -1,16 +1,13 @@
 //! `teachcam record`: a recording folder from cameras, the simulator or another recording.
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::Context;
 use rayon::prelude::*;
-use teachcam::io::recording::{
-    TIMESTAMPS_FILE, frame_file_name, timestamps_text, write_frame_png, write_recording_info,
-};
-use teachcam::io::{create_folder, rig::write_rig, tool::write_tool, write_atomically};
+use teachcam::io::recording_writer::RecordingWriter;
+use teachcam::io::{rig::write_rig, tool::write_tool};
 use teachcam::source::{FrameSource, SourceConfig, SourceSpec, open_source};
 
 use crate::Rejected;
@@ -135,29 +132,28 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     let mut source = open_source(&args.source, &config).rejected()?;
     let names: Vec<String> = source.cameras().iter().map(|c| c.name.clone()).collect();
-    create_folder(&args.out)?;
-    for name in &names {
-        create_folder(&args.out.join(name))?;
-    }
+    let mut writer = RecordingWriter::create(&args.out, &names)?;
     if let SourceSpec::Sim(scenario) = &args.source {
         let scene = teachcam::source::sim::scene(*scenario, &config.sim);
-        write_rig(&args.out.join("rig.json"), &scene.rig)?;
-        write_tool(&args.out.join("tool.json"), &scene.tool)?;
+        write_rig(&writer.staging().join("rig.json"), &scene.rig)?;
+        write_tool(&writer.staging().join("tool.json"), &scene.tool)?;
     }
-    let summary = record(source.as_mut(), &names, args)?;
+    let summary = record(source.as_mut(), &names, &mut writer, args)?;
+    writer.finish(source.fps())?;
     crate::announce::wrote(std::slice::from_ref(&args.out), &summary);
     Ok(())
 }
 
-/// Writes sets until the source ends, a limit is reached or a stop is asked; then the
-/// timestamps and the rate. Returns the summary line.
-fn record(source: &mut dyn FrameSource, names: &[String], args: &Args) -> anyhow::Result<String> {
+/// Writes sets until the source ends, a limit is reached or a stop is asked. Returns the
+/// summary line.
+fn record(
+    source: &mut dyn FrameSource,
+    names: &[String],
+    writer: &mut RecordingWriter,
+    args: &Args,
+) -> anyhow::Result<String> {
     let started = Instant::now();
-    let mut times: BTreeMap<String, Vec<f64>> =
-        names.iter().map(|n| (n.clone(), Vec::new())).collect();
-    let mut written = 0usize;
     let mut incomplete = 0usize;
-    let mut first_time_s = None;
     while !stop_requested() {
         if args
             .seconds
@@ -165,46 +161,34 @@ fn record(source: &mut dyn FrameSource, names: &[String], args: &Args) -> anyhow
         {
             break;
         }
-        if args.frames.is_some_and(|f| written >= f) {
+        if args.frames.is_some_and(|f| writer.sets() >= f) {
             break;
         }
         let Some(set) = source.next_set() else { break };
         let set = set.rejected()?;
-        if set.cameras.iter().any(Option::is_none) {
+        let Some(cameras) = set
+            .cameras
+            .iter()
+            .map(Option::as_ref)
+            .collect::<Option<Vec<_>>>()
+        else {
             incomplete += 1;
             continue;
-        }
-        let origin_s = *first_time_s.get_or_insert_with(|| {
-            set.cameras
-                .iter()
-                .flatten()
-                .map(|c| c.time_s)
-                .fold(f64::INFINITY, f64::min)
-        });
-        let frame = written;
-        set.cameras
+        };
+        let images = cameras
             .par_iter()
             .zip(names)
-            .map(|(camera, name)| {
-                let Some(camera) = camera else { return Ok(()) };
-                let image = camera.decode(name, None).rejected()?;
-                write_frame_png(&args.out.join(name).join(frame_file_name(frame)), &image)?;
-                Ok(())
-            })
-            .collect::<anyhow::Result<()>>()?;
-        for (camera, name) in set.cameras.iter().zip(names) {
-            if let (Some(camera), Some(t)) = (camera, times.get_mut(name)) {
-                t.push(camera.time_s - origin_s);
-            }
-        }
-        written += 1;
+            .map(|(camera, name)| camera.decode(name, None).rejected())
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let frames: Vec<_> = images
+            .iter()
+            .zip(&cameras)
+            .map(|(image, camera)| (image.as_ref(), camera.time_s))
+            .collect();
+        writer.push(&frames)?;
     }
+    let written = writer.sets();
     let fps = source.fps();
-    write_atomically(
-        &args.out.join(TIMESTAMPS_FILE),
-        timestamps_text(&times).as_bytes(),
-    )?;
-    write_recording_info(&args.out, fps)?;
     let stats = source.stats();
     let per_camera: Vec<String> = names.iter().map(|n| format!("{n} {written}")).collect();
     let unpaired: usize = stats.unpaired_frames.iter().sum();

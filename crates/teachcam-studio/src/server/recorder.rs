@@ -2,25 +2,22 @@
 //! command reads (`cam0/000000.png ...`, `timestamps.csv`, `recording.json`, and the rig and
 //! tool tracked with), all or nothing.
 //!
-//! The folder is staged beside its target ([`StagedFolder`]) and renamed into place on stop;
-//! a failed write or a studio that dies leaves nothing. Frames go to a writer thread through a
+//! The library's [`RecordingWriter`] (the one `teachcam record` uses) stages the folder beside
+//! its target and puts it in place on stop; a failed write or a studio that dies leaves nothing. Frames go to a writer thread through a
 //! short queue; when the disk is behind, sets are dropped and counted (as `teachcam record`
 //! does), never queued without bound: the cameras do not wait.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
 use std::thread::JoinHandle;
 
 use teachcam::camera::Rig;
-use teachcam::io::recording::{
-    GrayFrame, TIMESTAMPS_FILE, frame_file_name, timestamps_text, write_frame_png,
-    write_recording_info,
-};
+use teachcam::io::FileError;
+use teachcam::io::recording::GrayFrame;
+use teachcam::io::recording_writer::RecordingWriter;
 use teachcam::io::rig::write_rig;
 use teachcam::io::tool::write_tool;
-use teachcam::io::{FileError, StagedFolder, write_atomically};
 use teachcam::source::FrameSet;
 use teachcam::tool::Tool;
 
@@ -71,18 +68,15 @@ impl Recorder {
     /// # Errors
     /// [`FileError::Write`] when the staging folder cannot be made.
     pub fn start(target: &Path, rig: &Rig, tool: &Tool, fps: f64) -> Result<Self, FileError> {
-        let staged = StagedFolder::new(target)?;
         let names: Vec<String> = rig.iter().map(|(_, c)| c.name.clone()).collect();
-        for name in &names {
-            teachcam::io::create_folder(&staged.path().join(name))?;
-        }
-        write_rig(&staged.path().join("rig.json"), rig)?;
-        write_tool(&staged.path().join("tool.json"), tool)?;
+        let recording = RecordingWriter::create(target, &names)?;
+        write_rig(&recording.staging().join("rig.json"), rig)?;
+        write_tool(&recording.staging().join("tool.json"), tool)?;
         let (sender, frames) = sync_channel(QUEUE_SETS);
         let cameras = names.len();
         let writer = std::thread::Builder::new()
             .name("studio-recorder".into())
-            .spawn(move || write(staged, &names, &frames, fps))
+            .spawn(move || write(recording, &frames, fps))
             .map_err(|source| FileError::Write {
                 path: target.to_path_buf(),
                 source,
@@ -154,53 +148,18 @@ impl Recorder {
     }
 }
 
-/// The writer thread: each set's frames (cameras in parallel), then the timestamps and the
-/// rate, then the folder put in place. Returns the frames per camera.
+/// The writer thread: each set as it comes, then the timestamps and the rate, and the folder
+/// put in place. Returns the frames per camera.
 fn write(
-    staged: StagedFolder,
-    names: &[String],
+    mut recording: RecordingWriter,
     sets: &Receiver<Frames>,
     fps: f64,
 ) -> Result<usize, FileError> {
-    let root = staged.path().to_path_buf();
-    let mut times: BTreeMap<String, Vec<f64>> =
-        names.iter().map(|n| (n.clone(), Vec::new())).collect();
-    let mut origin_s = None;
-    let mut written = 0usize;
     while let Ok(frames) = sets.recv() {
-        let origin = *origin_s
-            .get_or_insert_with(|| frames.iter().map(|(_, t)| *t).fold(f64::INFINITY, f64::min));
-        let file = frame_file_name(written);
-        std::thread::scope(|scope| {
-            let jobs: Vec<_> = frames
-                .iter()
-                .zip(names)
-                .map(|((image, _), name)| {
-                    let path = root.join(name).join(&file);
-                    scope.spawn(move || write_frame_png(&path, image))
-                })
-                .collect();
-            jobs.into_iter().try_for_each(|job| {
-                job.join().unwrap_or_else(|_| {
-                    Err(FileError::Write {
-                        path: root.clone(),
-                        source: std::io::Error::other("a frame writer stopped"),
-                    })
-                })
-            })
-        })?;
-        for ((_, time_s), name) in frames.iter().zip(names) {
-            if let Some(t) = times.get_mut(name) {
-                t.push(time_s - origin);
-            }
-        }
-        written += 1;
+        let frames: Vec<(&GrayFrame, f64)> = frames.iter().map(|(f, t)| (f.as_ref(), *t)).collect();
+        recording.push(&frames)?;
     }
-    write_atomically(
-        &root.join(TIMESTAMPS_FILE),
-        timestamps_text(&times).as_bytes(),
-    )?;
-    write_recording_info(&root, fps)?;
-    staged.commit()?;
+    let written = recording.sets();
+    recording.finish(fps)?;
     Ok(written)
 }
