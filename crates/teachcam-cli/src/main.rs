@@ -12,6 +12,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod announce;
+mod capture;
 mod cmd;
 mod flags;
 mod load;
@@ -155,7 +156,7 @@ fn main() -> ExitCode {
     ) {
         // These end on Ctrl-C by finishing the frame set in hand (a valid recording, a
         // summary), so their handler comes first.
-        cmd::record::catch_stop();
+        capture::catch_stop();
     }
     // On SIGINT/SIGTERM no output is left half written (each is renamed whole or not at all),
     // and the temporaries of those unfinished are removed. Without the handler (it cannot be

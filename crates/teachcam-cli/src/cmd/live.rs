@@ -2,19 +2,16 @@
 
 use std::fmt::Write as _;
 use std::io::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
-use teachcam::camera::Rig;
 use teachcam::io::trajectory::write_trajectory;
-use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::pipeline::{PipelineConfig, TrackStream, TrackedFrame};
 use teachcam::source::{SourceSpec, open_source};
-use teachcam::tool::Tool;
 use teachcam::trajectory::{Sample, Trajectory};
 
 use crate::Rejected;
-use crate::cmd::record::{parse_source, source_config, stop_requested};
+use crate::capture::{CameraFlags, ModelFlags, parse_source, stop_requested};
 
 /// Track the tool live: capture → detect → track at camera rate, printing poses as they come.
 ///
@@ -40,15 +37,8 @@ pub struct Args {
     /// Where frames come from: sim:SCENARIO, v4l2:DEVICE[,DEVICE...], folder:REC or a folder.
     #[arg(long, default_value = "sim:paper", value_parser = parse_source)]
     pub source: SourceSpec,
-    /// Camera rig (rig.json); the scenario's for sim sources.
-    #[arg(long)]
-    pub rig: Option<PathBuf>,
-    /// Tool model (tool.json); the scenario's for sim sources.
-    #[arg(long)]
-    pub tool: Option<PathBuf>,
-    /// Frames per second (simulator's rate, rate asked of cameras).
-    #[arg(long, value_parser = crate::flags::fps)]
-    pub fps: Option<f64>,
+    #[command(flatten)]
+    pub model: ModelFlags,
     /// Stop after this many seconds.
     #[arg(long, value_parser = crate::flags::positive)]
     pub seconds: Option<f64>,
@@ -58,12 +48,8 @@ pub struct Args {
     /// Write the trajectory CSV here at the end instead of printing rows.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Cameras: manual exposure, milliseconds (where the driver allows).
-    #[arg(long, value_parser = crate::flags::positive)]
-    pub exposure_ms: Option<f64>,
-    /// Cameras: analogue gain in the driver's units (where the driver allows).
-    #[arg(long)]
-    pub gain: Option<i32>,
+    #[command(flatten)]
+    pub camera: CameraFlags,
 }
 
 /// Latency percentiles (nearest rank) in milliseconds.
@@ -103,49 +89,10 @@ fn row(frame: &TrackedFrame) -> String {
     text
 }
 
-/// The rig and tool to track a source with: the files given, else the simulator scenario's
-/// own (shared by `live` and `studio`).
-pub fn rig_and_tool(
-    source: &SourceSpec,
-    rig: Option<&Path>,
-    tool: Option<&Path>,
-    sim: &teachcam::source::sim::SimConfig,
-) -> anyhow::Result<(Rig, Tool)> {
-    Ok(match (source, rig, tool) {
-        (_, Some(rig), Some(tool)) => (crate::load::rig(rig)?, crate::load::tool(tool)?),
-        (SourceSpec::Sim(scenario), rig, tool) => {
-            let scene = teachcam::source::sim::scene(*scenario, sim);
-            (
-                rig.map(read_rig)
-                    .transpose()
-                    .rejected()?
-                    .unwrap_or(scene.rig),
-                tool.map(read_tool)
-                    .transpose()
-                    .rejected()?
-                    .unwrap_or(scene.tool),
-            )
-        }
-        _ => anyhow::bail!("--rig and --tool are needed for a camera or recording source"),
-    })
-}
-
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let config = source_config(
-        &args.source,
-        args.fps,
-        args.seconds,
-        None,
-        args.exposure_ms,
-        args.gain,
-    );
-    let (rig, tool) = rig_and_tool(
-        &args.source,
-        args.rig.as_deref(),
-        args.tool.as_deref(),
-        &config.sim,
-    )?;
+    let config = args.camera.source_config(&args.source, args.seconds, None);
+    let (rig, tool) = args.model.load(&args.source, &config.sim)?;
     let mut source = open_source(&args.source, &config).rejected()?;
     let started = Instant::now();
     let mut latencies = Vec::new();

@@ -1,31 +1,16 @@
 //! `teachcam record`: a recording folder from cameras, the simulator or another recording.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::Context;
 use rayon::prelude::*;
 use teachcam::io::recording_writer::RecordingWriter;
 use teachcam::io::{rig::write_rig, tool::write_tool};
-use teachcam::source::{FrameSource, SourceConfig, SourceSpec, open_source};
+use teachcam::source::{FrameSource, SourceSpec, open_source};
 
 use crate::Rejected;
-
-/// Set by Ctrl-C (SIGINT) or SIGTERM while `record` or `live` runs: they finish the set in
-/// hand and end cleanly.
-static STOP: AtomicBool = AtomicBool::new(false);
-
-/// Makes Ctrl-C and SIGTERM ask `record` and `live` to stop after the current frame set
-/// instead of ending the process. Called before any other handler is set (only one can be).
-pub fn catch_stop() {
-    let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::SeqCst));
-}
-
-/// True once Ctrl-C or SIGTERM arrived.
-pub fn stop_requested() -> bool {
-    STOP.load(Ordering::SeqCst)
-}
+use crate::capture::{CameraFlags, parse_source, stop_requested};
 
 /// Record a source's frames into a recording folder that every command reads.
 ///
@@ -55,56 +40,14 @@ pub struct Args {
     /// Output recording folder (created; must be empty if it exists).
     #[arg(long)]
     pub out: PathBuf,
-    /// Frames per second (simulator's rate, rate asked of cameras, a recording's rate).
-    #[arg(long, value_parser = crate::flags::fps)]
-    pub fps: Option<f64>,
     /// Stop after this many seconds.
     #[arg(long, value_parser = crate::flags::positive)]
     pub seconds: Option<f64>,
     /// Stop after writing this many frame sets.
     #[arg(long, value_parser = crate::flags::count)]
     pub frames: Option<usize>,
-    /// Cameras: manual exposure, milliseconds (where the driver allows).
-    #[arg(long, value_parser = crate::flags::positive)]
-    pub exposure_ms: Option<f64>,
-    /// Cameras: analogue gain in the driver's units (where the driver allows).
-    #[arg(long)]
-    pub gain: Option<i32>,
-}
-
-/// A `--source` value.
-pub fn parse_source(text: &str) -> Result<SourceSpec, String> {
-    text.parse()
-        .map_err(|e: teachcam::source::SourceError| e.to_string())
-}
-
-/// The source configuration common to `record` and `live`.
-pub fn source_config(
-    spec: &SourceSpec,
-    fps: Option<f64>,
-    seconds: Option<f64>,
-    frames: Option<usize>,
-    exposure_ms: Option<f64>,
-    gain: Option<i32>,
-) -> SourceConfig {
-    let mut config = SourceConfig {
-        fps,
-        ..SourceConfig::default()
-    };
-    config.v4l2.exposure_ms = exposure_ms;
-    config.v4l2.gain = gain;
-    let rate = match spec {
-        SourceSpec::Sim(_) => Some(fps.unwrap_or(config.sim.fps)),
-        _ => fps,
-    };
-    let from_seconds = seconds
-        .zip(rate)
-        .map(|(s, r)| (s * r).round().max(1.0) as usize);
-    config.max_sets = match (frames, from_seconds) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
-    };
-    config
+    #[command(flatten)]
+    pub camera: CameraFlags,
 }
 
 /// Run the command.
@@ -122,14 +65,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     // `--frames` counts sets written, so the source is not capped by it: a set dropped
     // because the writer fell behind does not count.
-    let config = source_config(
-        &args.source,
-        args.fps,
-        args.seconds,
-        None,
-        args.exposure_ms,
-        args.gain,
-    );
+    let config = args.camera.source_config(&args.source, args.seconds, None);
     let mut source = open_source(&args.source, &config).rejected()?;
     let names: Vec<String> = source.cameras().iter().map(|c| c.name.clone()).collect();
     let mut writer = RecordingWriter::create(&args.out, &names)?;

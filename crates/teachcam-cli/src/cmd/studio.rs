@@ -9,8 +9,7 @@ use teachcam::source::SourceSpec;
 use teachcam_studio::server::{Event, StudioConfig, StudioError, run as serve};
 
 use crate::Rejected;
-use crate::cmd::live::rig_and_tool;
-use crate::cmd::record::{parse_source, source_config, stop_requested};
+use crate::capture::{CameraFlags, ModelFlags, parse_source, stop_requested};
 
 /// Open the studio: a local web app to aim the cameras, watch the tool in 3-D, record, review
 /// the smoothing, check the path on a robot and download its program.
@@ -38,15 +37,10 @@ pub struct Args {
     /// folder:REC.
     #[arg(long, value_parser = parse_source, conflicts_with = "recording")]
     pub source: Option<SourceSpec>,
-    /// Camera rig (rig.json); the scenario's for sim sources, REC/rig.json for a recording.
-    #[arg(long)]
-    pub rig: Option<PathBuf>,
-    /// Tool model (tool.json); the scenario's for sim sources, REC/tool.json for a recording.
-    #[arg(long)]
-    pub tool: Option<PathBuf>,
-    /// Frames per second (the simulator's rate, 30 by default; a recording's playback rate).
-    #[arg(long, value_parser = crate::flags::fps)]
-    pub fps: Option<f64>,
+    #[command(flatten)]
+    pub model: ModelFlags,
+    #[command(flatten)]
+    pub camera: CameraFlags,
     /// Port on 127.0.0.1 (0: any free one).
     #[arg(long, default_value_t = 0)]
     pub port: u16,
@@ -88,26 +82,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         (None, Some(source)) => source.clone(),
         (None, None) => SourceSpec::Sim(teachcam::sim::Scenario::Paper),
     };
-    let source_config = source_config(&source, args.fps, None, None, None, None);
+    let source_config = args.camera.source_config(&source, None, None);
     let folder = match &source {
         SourceSpec::Folder(folder) => Some(folder.clone()),
         _ => None,
     };
-    let beside = |name: &str, given: &Option<PathBuf>| {
-        given
-            .clone()
-            .or_else(|| folder.as_ref().map(|f| f.join(name)))
-    };
-    let (rig_path, tool_path) = (
-        beside("rig.json", &args.rig),
-        beside("tool.json", &args.tool),
-    );
-    let (rig, tool) = rig_and_tool(
-        &source,
-        rig_path.as_deref(),
-        tool_path.as_deref(),
-        &source_config.sim,
-    )?;
+    let (rig, tool) = args.model.load(&source, &source_config.sim)?;
     let truth = match folder.map(|f| f.join("truth.csv")) {
         Some(path) if path.is_file() => Some(
             read_trajectory(&path)
