@@ -359,7 +359,7 @@ pub fn spectrum(raw: &Trajectory, truth: Option<&Trajectory>, cutoff_hz: f64) ->
             shape: Shape::Wide,
         });
     }
-    let floor = |s: &[super::spectrum::WindowedSpectrum]| -> Option<f64> {
+    let floor = |s: &[crate::smooth::spectrum::Spectrum]| -> Option<f64> {
         s[..3]
             .iter()
             .filter_map(|s| median_above(&s.frequency_hz, &s.amplitude, cutoff_hz))

@@ -14,16 +14,7 @@
 //! has a floor of its own, which a reader takes for measurement noise. Detrending removes the
 //! ramp; the window makes the leak fall as `1/f³`.
 
-use realfft::RealFftPlanner;
-
-/// Amplitudes against frequency.
-#[derive(Debug, Clone, PartialEq)]
-pub struct WindowedSpectrum {
-    /// Bin frequencies, Hz, from 0 to Nyquist.
-    pub frequency_hz: Vec<f64>,
-    /// Single-sided amplitude at each frequency, in the series' unit.
-    pub amplitude: Vec<f64>,
-}
+use crate::smooth::spectrum::{Spectrum, single_sided};
 
 /// `values` less their least-squares straight line over the sample index.
 #[must_use]
@@ -59,40 +50,22 @@ pub fn hann(n: usize) -> Vec<f64> {
 /// The detrended, Hann-windowed single-sided amplitude spectrum of `values` sampled at
 /// `sample_rate_hz` (see the module's model); empty for fewer than 4 samples.
 #[must_use]
-pub fn windowed_spectrum(values: &[f64], sample_rate_hz: f64) -> WindowedSpectrum {
+pub fn windowed_spectrum(values: &[f64], sample_rate_hz: f64) -> Spectrum {
     let n = values.len();
     if n < 4 {
-        return WindowedSpectrum {
+        return Spectrum {
             frequency_hz: Vec::new(),
             amplitude: Vec::new(),
         };
     }
     let window = hann(n);
     let gain: f64 = window.iter().sum();
-    let mut input: Vec<f64> = detrended(values)
+    let input: Vec<f64> = detrended(values)
         .iter()
         .zip(&window)
         .map(|(x, w)| x * w)
         .collect();
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(n);
-    let mut output = fft.make_output_vec();
-    // Lengths match the plan by construction, so the transform cannot fail.
-    let _ = fft.process(&mut input, &mut output);
-    let mut amplitude: Vec<f64> = output.iter().map(|c| 2.0 * c.norm() / gain).collect();
-    amplitude[0] /= 2.0;
-    if n % 2 == 0
-        && let Some(last) = amplitude.last_mut()
-    {
-        *last /= 2.0;
-    }
-    let frequency_hz = (0..amplitude.len())
-        .map(|k| k as f64 * sample_rate_hz / n as f64)
-        .collect();
-    WindowedSpectrum {
-        frequency_hz,
-        amplitude,
-    }
+    single_sided(input, sample_rate_hz, gain)
 }
 
 /// The median of the amplitudes at frequencies strictly above `above_hz`, `None` when there

@@ -27,19 +27,27 @@ pub fn amplitude_spectrum(values: &[f64], sample_rate_hz: f64) -> Spectrum {
             amplitude: Vec::new(),
         };
     }
+    single_sided(values.to_vec(), sample_rate_hz, n as f64)
+}
+
+/// The single-sided amplitudes of the real DFT of `input` (already windowed, `n ≥ 1` samples),
+/// `2|X_k| / gain` except the mean and, for even `n`, Nyquist, which are `|X_k| / gain`. With
+/// `gain = n` a sinusoid on a bin reads its amplitude; a window's coherent gain `Σ w_j` does
+/// the same for windowed input. One function for the plain and the windowed spectrum.
+pub(crate) fn single_sided(mut input: Vec<f64>, sample_rate_hz: f64, gain: f64) -> Spectrum {
+    let n = input.len();
     let mut planner = RealFftPlanner::<f64>::new();
     let fft = planner.plan_fft_forward(n);
-    let mut input = values.to_vec();
     let mut output = fft.make_output_vec();
     // Lengths match the plan by construction, so the transform cannot fail.
     let _ = fft.process(&mut input, &mut output);
-    let scale = 2.0 / n as f64;
+    let scale = 2.0 / gain;
     let mut amplitude: Vec<f64> = output.iter().map(|c| c.norm() * scale).collect();
     amplitude[0] /= 2.0;
-    if n % 2 == 0 {
-        if let Some(last) = amplitude.last_mut() {
-            *last /= 2.0;
-        }
+    if n % 2 == 0
+        && let Some(last) = amplitude.last_mut()
+    {
+        *last /= 2.0;
     }
     let frequency_hz = (0..amplitude.len())
         .map(|k| k as f64 * sample_rate_hz / n as f64)
