@@ -10,7 +10,7 @@ mod support;
 
 use std::time::Duration;
 
-use support::browser::Browser;
+use teachcam_testdata::browser::Browser;
 
 /// A page that clears a WebGL canvas to a known colour and logs one console error.
 const PAGE: &str = r#"<!doctype html><html><body><canvas id="c" width="8" height="8"></canvas>
@@ -341,50 +341,16 @@ async fn the_report_draws_every_figure_and_zooms() {
     let Some(browser) = Browser::open(test).await else {
         return;
     };
-    browser.open_file(&page).await;
-    assert!(
-        browser
-            .wait_for(
-                "return document.querySelectorAll('#figures section.tc-figure').length > 0",
-                Duration::from_secs(20)
-            )
-            .await,
-        "the figures were drawn"
-    );
+    let drawn = browser.drawn_report(&page).await;
     let errors = browser.errors().await;
     assert!(errors.is_empty(), "console errors: {errors:?}");
     // Every slot of the model has its section; every panel its uPlot canvas; every missing
     // slot its line.
-    let drawn = browser
-        .eval(
-            "return Array.from(document.querySelectorAll('#figures section.tc-figure')).map(s => ({
-                id: s.dataset.figure,
-                kind: s.dataset.kind,
-                canvases: s.querySelectorAll('.uplot canvas').length,
-                images: Array.from(s.querySelectorAll('img')).filter(i => i.complete && i.naturalWidth > 0).length,
-                missing: (s.querySelector('.tc-missing') || {}).textContent || null,
-            }))",
-        )
-        .await;
-    let drawn = drawn.as_array().expect("a list of sections");
-    assert_eq!(drawn.len(), report.figures.len(), "{drawn:?}");
-    for (slot, section) in report.figures.iter().zip(drawn) {
-        assert_eq!(section["id"], slot.id.name(), "{section}");
-        match &slot.body {
-            teachcam::report::FigureBody::Plots { panels } => {
-                assert_eq!(section["canvases"], panels.len(), "{section}");
-            }
-            teachcam::report::FigureBody::Images { images } => {
-                assert_eq!(section["images"], images.len(), "{section}");
-            }
-            teachcam::report::FigureBody::Missing { reason } => {
-                assert_eq!(
-                    section["missing"],
-                    format!("Missing: {reason}"),
-                    "{section}"
-                );
-            }
-        }
+    let model = serde_json::to_value(&report.figures).expect("the model as JSON");
+    if let Err(wrong) =
+        teachcam_testdata::browser::check_figures_drawn(model.as_array().expect("a list"), &drawn)
+    {
+        panic!("{wrong}");
     }
     let robot = drawn
         .iter()

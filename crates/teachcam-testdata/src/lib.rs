@@ -5,6 +5,8 @@
 //! checker the same way: under CI (`CI` set) it is a failure, elsewhere the test says it was
 //! skipped and why.
 
+pub mod browser;
+
 use std::path::PathBuf;
 
 /// `../shared/data/<folder>` (or the data root for `""`), or `None` when it is missing and

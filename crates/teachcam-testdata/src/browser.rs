@@ -212,3 +212,70 @@ impl Drop for Browser {
         self.kill_group();
     }
 }
+
+/// What a report page drew: one entry per `section.tc-figure` of `#figures`, with its id, its
+/// uPlot canvases, its loaded images and its "missing" line.
+const DRAWN_FIGURES: &str = "return Array.from(document.querySelectorAll('#figures section.tc-figure')).map(s => ({
+    id: s.dataset.figure,
+    canvases: s.querySelectorAll('.uplot canvas').length,
+    images: Array.from(s.querySelectorAll('img')).filter(i => i.complete && i.naturalWidth > 0).length,
+    missing: (s.querySelector('.tc-missing') || {}).textContent || null,
+}))";
+
+impl Browser {
+    /// Opens the report page at `page` and waits for its figures; returns what it drew
+    /// ([`check_figures_drawn`] compares it with the page's model).
+    pub async fn drawn_report(&self, page: &Path) -> Vec<Value> {
+        self.open_file(page).await;
+        assert!(
+            self.wait_for(
+                "return document.querySelectorAll('#figures section.tc-figure').length > 0",
+                Duration::from_secs(20)
+            )
+            .await,
+            "{}: no figure was drawn",
+            page.display()
+        );
+        match self.eval(DRAWN_FIGURES).await {
+            Value::Array(sections) => sections,
+            other => panic!("{}: the page's sections: {other}", page.display()),
+        }
+    }
+}
+
+/// Every figure slot of a report model (`figures`, its JSON list) has its section, in order:
+/// a uPlot canvas for each plot panel, each image loaded, or the line saying why it is missing.
+///
+/// # Errors
+/// The first slot drawn otherwise, with what was drawn.
+pub fn check_figures_drawn(figures: &[Value], drawn: &[Value]) -> Result<(), String> {
+    if figures.len() != drawn.len() {
+        return Err(format!(
+            "{} figure slots, {} sections drawn: {drawn:?}",
+            figures.len(),
+            drawn.len()
+        ));
+    }
+    for (slot, section) in figures.iter().zip(drawn) {
+        let expected = match slot["kind"].as_str() {
+            Some("plots") => json!({"canvases": slot["panels"].as_array().map_or(0, Vec::len)}),
+            Some("images") => json!({"images": slot["images"].as_array().map_or(0, Vec::len)}),
+            Some("missing") => json!({"missing": format!(
+                "Missing: {}",
+                slot["reason"].as_str().unwrap_or_default()
+            )}),
+            other => return Err(format!("{}: unknown kind {other:?}", slot["id"])),
+        };
+        let matches = section["id"] == slot["id"]
+            && expected
+                .as_object()
+                .is_some_and(|e| e.iter().all(|(k, v)| &section[k] == v));
+        if !matches {
+            return Err(format!(
+                "{} expected {expected}, drawn {section}",
+                slot["id"]
+            ));
+        }
+    }
+    Ok(())
+}
