@@ -7,6 +7,7 @@
 pub mod camera_file;
 pub mod decimal;
 pub mod detections;
+pub mod gray_png;
 pub mod output;
 pub mod plausible;
 pub mod recording;
