@@ -10,7 +10,7 @@
 //! buffer reused by the thread (the window is the output itself, nothing moves), and each piece
 //! of rows is unfiltered while it is still in the core's cache, straight into the image. The
 //! `Sub` filter, the one the simulator writes, is a running sum: formed 16 samples at a time
-//! with SSE2 ([`unfilter_sub`]).
+//! with SSE2 (`unfilter_sub`).
 //!
 //! Anything else (another depth or colour type, interlacing, a palette, transparency, any
 //! other chunk, a bad CRC, a stream that is short, long or corrupt) returns `None`, and the
