@@ -1,8 +1,9 @@
 //! PNG decoding of one rendered 1280×1024 8-bit frame of the paper scenario (noisy
 //! background, 4 markers; written as `teachcam simulate` writes it: fast deflate, Sub filter),
-//! single-threaded: `read_frame` (the path `track` and `detect` use) against `image` from
-//! memory, the `png` crate alone, and `fdeflate`'s inflate of the same zlib stream (the floor
-//! any PNG decoder built on it has). `zune-png` 0.4.10 and `libdeflater` 1.26 were measured
+//! single-threaded: `read_frame` (the path `track` and `detect` use: file read, then
+//! `io::gray_png`) and `io::gray_png` from memory against `image` from memory, the `png` crate
+//! alone, and `fdeflate`'s inflate of the same zlib stream (the floor any PNG decoder built on
+//! it has). `zune-png` 0.4.10 and `libdeflater` 1.26 were measured
 //! here too, slower (6.2 ms and 2.5 ms for inflate alone against fdeflate's 1.5 ms), and left
 //! out so that they are not built for every check; their code is in notes/speed.md
 //! (issue 21).
@@ -57,6 +58,13 @@ fn bench_decode(c: &mut Criterion) {
     group.sample_size(30);
     group.bench_function("read_frame", |b| {
         b.iter(|| read_frame(black_box(&path), Some((1280, 1024))))
+    });
+    assert_eq!(
+        teachcam::io::gray_png::decode_gray8(&bytes).as_ref(),
+        Some(image)
+    );
+    group.bench_function("gray_png_from_memory", |b| {
+        b.iter(|| teachcam::io::gray_png::decode_gray8(black_box(&bytes)))
     });
     group.bench_function("image_from_memory", |b| {
         b.iter(|| image::load_from_memory_with_format(black_box(&bytes), image::ImageFormat::Png))

@@ -5,7 +5,9 @@
 //! none ([`output`]).
 
 pub mod camera_file;
+pub mod decimal;
 pub mod detections;
+pub mod gray_png;
 pub mod output;
 pub mod plausible;
 pub mod recording;
@@ -104,6 +106,62 @@ pub fn read_text(path: &Path) -> Result<String, FileError> {
     })
 }
 
+/// Bytes read at a time by [`read_line_chunks`].
+const READ_CHUNK_BYTES: usize = 1 << 20;
+
+/// Reads a text file in pieces of whole lines of about [`READ_CHUNK_BYTES`] (a longer line is
+/// read whole), handing each piece to `each` with the 1-based number of its first line; `each`
+/// returns how many lines the piece held. The file is never held whole, so a large table costs
+/// one buffer, not its size.
+///
+/// # Errors
+/// [`FileError::Read`]; [`FileError::Invalid`] at the first byte that is not UTF-8 (the byte
+/// offset in the file, as [`read_text`] gives it); what `each` returns.
+pub(crate) fn read_line_chunks(
+    path: &Path,
+    mut each: impl FnMut(usize, &str) -> Result<usize, FileError>,
+) -> Result<(), FileError> {
+    use std::io::Read as _;
+    let read_error = |source| FileError::Read {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = std::fs::File::open(path).map_err(read_error)?;
+    let mut buffer = vec![0u8; READ_CHUNK_BYTES];
+    let (mut filled, mut offset, mut line) = (0, 0, 1);
+    loop {
+        if filled == buffer.len() {
+            buffer.resize(2 * buffer.len(), 0);
+        }
+        let read = match file.read(&mut buffer[filled..]) {
+            Ok(read) => read,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(read_error(e)),
+        };
+        filled += read;
+        // Up to the last line break (a break is one byte, never inside a UTF-8 character), or
+        // everything at the end of the file.
+        let end = match buffer[..filled].iter().rposition(|&b| b == b'\n') {
+            _ if read == 0 => filled,
+            Some(last_break) => last_break + 1,
+            None => continue,
+        };
+        let text = std::str::from_utf8(&buffer[..end]).map_err(|e| {
+            FileError::invalid(
+                path,
+                format!("not UTF-8 text (byte {})", offset + e.valid_up_to()),
+            )
+        })?;
+        line += each(line, text)?;
+        buffer.copy_within(end..filled, 0);
+        filled -= end;
+        offset += end;
+        if read == 0 {
+            return Ok(());
+        }
+    }
+}
+
 /// Writes `contents` to `path` whole or not at all: an [`OutputSet`] of one file (a temporary
 /// beside it, flushed and synced, then renamed over `path`). A failure leaves any previous file
 /// untouched.
@@ -111,8 +169,20 @@ pub fn read_text(path: &Path) -> Result<String, FileError> {
 /// # Errors
 /// [`FileError::Write`] naming `path`.
 pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), FileError> {
+    write_atomically_with(path, |file| std::io::Write::write_all(file, contents))
+}
+
+/// As [`write_atomically`], the contents written by `write` into the temporary (an unbuffered
+/// file: write it in large pieces), so that a large file need not be held in memory whole.
+///
+/// # Errors
+/// [`FileError::Write`] naming `path`, with what `write` returned.
+pub fn write_atomically_with(
+    path: &Path,
+    write: impl FnOnce(&mut std::fs::File) -> std::io::Result<()>,
+) -> Result<(), FileError> {
     let set = OutputSet::new();
-    set.add(path, contents)?;
+    set.add_written(path, write)?;
     set.commit().map(|_| ())
 }
 

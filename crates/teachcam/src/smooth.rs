@@ -330,32 +330,44 @@ fn snapped_rate_hz(rate_hz: f64, span_s: f64) -> f64 {
 /// numbers, a tip that moves in the tool frame, a run too short for the filter's padding, a
 /// cut-off at or above Nyquist.
 pub fn smooth(trajectory: &Trajectory, config: &SmoothConfig) -> Result<Trajectory, SmoothError> {
-    let timing = check_timing(trajectory, config.time_step_tolerance)?;
-    check_finite(trajectory)?;
+    smooth_owned(trajectory.clone(), config)
+}
+
+/// [`smooth`] of a trajectory the caller gives up: the result is written over its samples, so
+/// a file-to-file job holds one trajectory, not two.
+///
+/// # Errors
+/// As [`smooth`].
+pub fn smooth_owned(
+    mut trajectory: Trajectory,
+    config: &SmoothConfig,
+) -> Result<Trajectory, SmoothError> {
+    let timing = check_timing(&trajectory, config.time_step_tolerance)?;
+    check_finite(&trajectory)?;
     let frames = trajectory.samples.first().map_or(0, |s| s.frame.0)
         ..trajectory.samples.last().map_or(0, |s| s.frame.0);
     check_method(&config.method, timing.sample_rate_hz, frames)?;
     let tip_in_tool = match config.tip_in_tool {
         Some(tip) => tip,
-        None => recover_tip_in_tool(trajectory, config.tip_tolerance_mm)?,
+        None => recover_tip_in_tool(&trajectory, config.tip_tolerance_mm)?,
     };
-    let mut out = trajectory.clone();
-    for run in gaps::runs(trajectory, config.max_gap_frames) {
-        let samples = &trajectory.samples[run.clone()];
+    // Runs do not overlap, and each is read whole before it is written.
+    for run in gaps::runs(&trajectory, config.max_gap_frames) {
+        let samples = &mut trajectory.samples[run];
         match smooth_run(samples, &config.method, timing.sample_rate_hz, &tip_in_tool) {
-            Ok(smoothed) => out.samples[run].copy_from_slice(&smoothed),
+            Ok(()) => {}
             Err(e) if config.short_runs == ShortRuns::Gap && is_too_short(&e) => {
-                for s in &mut out.samples[run] {
+                for s in samples {
                     *s = Sample::gap(s.frame, s.time_s);
                 }
             }
             Err(e) => return Err(e),
         }
     }
-    if let Some((frame, field)) = first_not_finite(&out) {
+    if let Some((frame, field)) = first_not_finite(&trajectory) {
         return Err(SmoothError::NotFiniteResult { frame, field });
     }
-    Ok(out)
+    Ok(trajectory)
 }
 
 /// The six uniform series of a run, gaps filled: positions (mm) and unrolled rotation (rad),
@@ -398,38 +410,43 @@ pub fn run_series(samples: &[Sample], fill_ends: SplineEnds) -> RunSeries {
             })
             .collect();
     }
-    let mut rotations = measured_rotations.clone();
-    if measured.len() < samples.len() {
-        let times: Vec<f64> = measured.iter().map(|(i, _)| samples[*i].time_s).collect();
-        let splines: Vec<Option<CubicSpline>> = columns
-            .iter()
-            .map(|y| CubicSpline::new(&times, y, fill_ends).ok())
-            .collect();
-        let mut filled: [Vec<f64>; 6] = Default::default();
-        rotations = Vec::with_capacity(samples.len());
-        let mut next_measured = 0;
-        for (i, sample) in samples.iter().enumerate() {
-            if next_measured < measured.len() && measured[next_measured].0 == i {
-                for (f, c) in filled.iter_mut().zip(&columns) {
-                    f.push(c[next_measured]);
-                }
-                rotations.push(measured_rotations[next_measured]);
-                next_measured += 1;
-            } else {
-                // A run starts with a pose, so a previous measured sample exists.
-                let previous = next_measured.saturating_sub(1);
-                for (f, (s, c)) in filled.iter_mut().zip(splines.iter().zip(&columns)) {
-                    f.push(s.as_ref().map_or(c[previous], |s| s.value(sample.time_s)));
-                }
-                let k = filled[3].len() - 1;
-                let v = Vector3::new(filled[3][k], filled[4][k], filled[5][k]);
-                rotations
-                    .push(measured_rotations[previous] * rotation::exp(&(v - unrolled[previous])));
-            }
-        }
-        columns = filled;
+    if measured.len() == samples.len() {
+        return RunSeries {
+            columns,
+            rotations: measured_rotations,
+        };
     }
-    RunSeries { columns, rotations }
+    let times: Vec<f64> = measured.iter().map(|(i, _)| samples[*i].time_s).collect();
+    let splines: Vec<Option<CubicSpline>> = columns
+        .iter()
+        .map(|y| CubicSpline::new(&times, y, fill_ends).ok())
+        .collect();
+    let mut filled: [Vec<f64>; 6] = Default::default();
+    let mut filled_rotations = Vec::with_capacity(samples.len());
+    let mut next_measured = 0;
+    for (i, sample) in samples.iter().enumerate() {
+        if next_measured < measured.len() && measured[next_measured].0 == i {
+            for (f, c) in filled.iter_mut().zip(&columns) {
+                f.push(c[next_measured]);
+            }
+            filled_rotations.push(measured_rotations[next_measured]);
+            next_measured += 1;
+        } else {
+            // A run starts with a pose, so a previous measured sample exists.
+            let previous = next_measured.saturating_sub(1);
+            for (f, (s, c)) in filled.iter_mut().zip(splines.iter().zip(&columns)) {
+                f.push(s.as_ref().map_or(c[previous], |s| s.value(sample.time_s)));
+            }
+            let k = filled[3].len() - 1;
+            let v = Vector3::new(filled[3][k], filled[4][k], filled[5][k]);
+            filled_rotations
+                .push(measured_rotations[previous] * rotation::exp(&(v - unrolled[previous])));
+        }
+    }
+    RunSeries {
+        columns: filled,
+        rotations: filled_rotations,
+    }
 }
 
 /// Applies `method` to one uniform series sampled at `sample_rate_hz`.
@@ -570,12 +587,13 @@ fn check_method(
     }
 }
 
+/// Smooths one run in place; on an error the samples are untouched.
 fn smooth_run(
-    samples: &[Sample],
+    samples: &mut [Sample],
     method: &Method,
     sample_rate_hz: f64,
     tip_in_tool: &Point3,
-) -> Result<Vec<Sample>, SmoothError> {
+) -> Result<(), SmoothError> {
     let first_frame = samples.first().map_or(0, |s| s.frame.0);
     let last_frame = samples.last().map_or(0, |s| s.frame.0);
     // Gaps are filled by the spline the user chose, or scipy's default ends otherwise.
@@ -590,46 +608,36 @@ fn smooth_run(
         .map(|c| smooth_series(c, method, sample_rate_hz))
         .collect::<Result<_, _>>()
         .map_err(|e| rename_frames(e, first_frame, last_frame))?;
-    let unrolled: Vec<Vector3<f64>> = (0..samples.len())
-        .map(|i| {
-            Vector3::new(
-                series.columns[3][i],
-                series.columns[4][i],
-                series.columns[5][i],
-            )
-        })
-        .collect();
-    let smoothed_unrolled: Vec<Vector3<f64>> = (0..samples.len())
-        .map(|i| Vector3::new(smoothed[3][i], smoothed[4][i], smoothed[5][i]))
-        .collect();
-    let rotations = rotation::roll_back(&series.rotations, &unrolled, &smoothed_unrolled);
-    Ok(samples
-        .iter()
-        .enumerate()
-        .map(|(i, sample)| {
-            let world_from_tool = pose_from_parts(
-                Vector3::new(smoothed[0][i], smoothed[1][i], smoothed[2][i]),
-                rotations[i],
-            );
-            let (markers, rms_mm, source, status) = match &sample.pose {
-                Some(p) => (p.markers, p.rms_mm, sample.source, sample.status),
-                None => (0, 0.0, PoseSource::Filled, Status::Degraded),
-            };
-            Sample {
-                frame: sample.frame,
-                time_s: sample.time_s,
-                pose: Some(ToolPose {
-                    world_from_tool,
-                    tip_in_world: world_from_tool * tip_in_tool,
-                    markers,
-                    rms_mm,
-                }),
-                source,
-                tip_std_mm: sample.tip_std_mm,
-                status,
-            }
-        })
-        .collect())
+    let [_, _, _, rx, ry, rz] = &series.columns;
+    for (i, sample) in samples.iter_mut().enumerate() {
+        let rotation = rotation::corrected(
+            &series.rotations[i],
+            &Vector3::new(rx[i], ry[i], rz[i]),
+            &Vector3::new(smoothed[3][i], smoothed[4][i], smoothed[5][i]),
+        );
+        let world_from_tool = pose_from_parts(
+            Vector3::new(smoothed[0][i], smoothed[1][i], smoothed[2][i]),
+            rotation,
+        );
+        let (markers, rms_mm, source, status) = match &sample.pose {
+            Some(p) => (p.markers, p.rms_mm, sample.source, sample.status),
+            None => (0, 0.0, PoseSource::Filled, Status::Degraded),
+        };
+        *sample = Sample {
+            frame: sample.frame,
+            time_s: sample.time_s,
+            pose: Some(ToolPose {
+                world_from_tool,
+                tip_in_world: world_from_tool * tip_in_tool,
+                markers,
+                rms_mm,
+            }),
+            source,
+            tip_std_mm: sample.tip_std_mm,
+            status,
+        };
+    }
+    Ok(())
 }
 
 fn is_too_short(error: &SmoothError) -> bool {

@@ -6,7 +6,9 @@ use anyhow::{Context, Result, bail};
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::io::{Output, check_outputs};
 use teachcam::smooth::spline::SplineEnds;
-use teachcam::smooth::{CutoffConvention, Method, ShortRuns, SmoothConfig, smooth, suggest_cutoff};
+use teachcam::smooth::{
+    CutoffConvention, Method, ShortRuns, SmoothConfig, smooth_owned, suggest_cutoff,
+};
 use teachcam::trajectory::PoseSource;
 
 use crate::Rejected;
@@ -179,7 +181,7 @@ pub fn run(args: &Args) -> Result<()> {
             knot_spacing_s: args.knot_spacing,
         },
     };
-    let smoothed = smooth(&trajectory, &config)
+    let smoothed = smooth_owned(trajectory, &config)
         .with_context(|| format!("{}", args.input.display()))
         .rejected()?;
     write_trajectory(&args.output, &smoothed)?;

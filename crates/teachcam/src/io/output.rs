@@ -117,6 +117,19 @@ impl OutputSet {
     /// [`FileError::Write`] naming `target`: its folder is missing or not writable, it is a
     /// folder, the set already holds it, or the disk refused the bytes.
     pub fn add(&self, target: &Path, contents: &[u8]) -> Result<(), FileError> {
+        self.add_written(target, |file| file.write_all(contents))
+    }
+
+    /// As [`OutputSet::add`], the contents written by `write` into the temporary (an
+    /// unbuffered file: write it in large pieces); an error from `write` leaves no temporary.
+    ///
+    /// # Errors
+    /// As [`OutputSet::add`], and what `write` returns.
+    pub fn add_written(
+        &self,
+        target: &Path,
+        write: impl FnOnce(&mut std::fs::File) -> std::io::Result<()>,
+    ) -> Result<(), FileError> {
         let err = |source| write_error(target, source);
         let file_name = target
             .file_name()
@@ -139,7 +152,7 @@ impl OutputSet {
         live_temporaries().push(temporary.clone());
         let written = (|| {
             let mut file = std::fs::File::create(&temporary)?;
-            file.write_all(contents)?;
+            write(&mut file)?;
             file.sync_all()
         })();
         if let Err(source) = written {

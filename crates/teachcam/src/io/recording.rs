@@ -435,7 +435,9 @@ pub const MAX_FRAME_PIXELS: u64 = 50_000_000;
 
 /// Decodes one frame, checking its size when `expected_size` is given. The size is read from
 /// the PNG header first: a frame of the wrong size or over [`MAX_FRAME_PIXELS`] is refused
-/// before it is decoded.
+/// before it is decoded. An 8-bit gray frame of the plain kind `teachcam` writes is decoded by
+/// [`super::gray_png`] in one pass; any other file, and any file that pass refuses, by `image`
+/// (same pixels, and that decoder's error messages).
 ///
 /// # Errors
 /// [`FileError`] naming the file: unreadable, not a PNG, truncated, too large, or of the wrong
@@ -447,10 +449,15 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
     })?;
     let not_png =
         |e: image::ImageError| FileError::invalid(path, format!("not a readable PNG: {e}"));
-    let (fw, fh) =
-        image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png)
-            .into_dimensions()
-            .map_err(not_png)?;
+    let plain_gray8 = super::gray_png::gray8_header(&bytes);
+    let (fw, fh) = match plain_gray8 {
+        Some(header) => (header.width, header.height),
+        None => {
+            image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png)
+                .into_dimensions()
+                .map_err(not_png)?
+        }
+    };
     if let Some((w, h)) = expected_size
         && (fw, fh) != (w, h)
     {
@@ -460,6 +467,11 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
         ));
     }
     check_frame_pixels(path, fw, fh)?;
+    if plain_gray8.is_some()
+        && let Some(image) = super::gray_png::decode_gray8(&bytes)
+    {
+        return Ok(GrayFrame::Eight(image));
+    }
     let image =
         image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).map_err(not_png)?;
     Ok(GrayFrame::from_dynamic(image))

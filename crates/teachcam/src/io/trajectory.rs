@@ -11,10 +11,12 @@
 //! still read: their status is `ok` where a pose is and `lost` where none is. Nothing that is
 //! not finite is ever written.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{FileError, read_text, write_atomically};
+use rayon::prelude::*;
+
+use super::decimal::{parse_f64, push_fixed};
+use super::{FileError, read_line_chunks, write_atomically_with};
 use crate::geometry::{FrameIndex, Point3, Quat, pose_from_parts};
 use crate::trajectory::{PoseSource, Sample, Status, ToolPose, Trajectory};
 
@@ -31,13 +33,16 @@ pub const EXTRA_COLUMNS: [&str; 3] = ["filled", "tip_std_mm", "status"];
 /// tools print six decimals.
 const CSV_QUATERNION_TOLERANCE: f64 = 1e-5;
 
-/// Writes a trajectory CSV whole, after checking that every number in it is finite.
+/// Writes a trajectory CSV whole, after checking that every number in it is finite. The text
+/// goes to the file a few blocks of rows at a time ([`write_trajectory_csv`]); it is never
+/// held whole.
 ///
 /// # Errors
 /// [`FileError::Invalid`] naming the first frame and field that is not finite (nothing is
 /// written then); [`FileError::Write`].
 pub fn write_trajectory(path: &Path, trajectory: &Trajectory) -> Result<(), FileError> {
-    write_atomically(path, trajectory_text(path, trajectory)?.as_bytes())
+    check_finite(trajectory).map_err(|reason| FileError::invalid(path, reason))?;
+    write_atomically_with(path, |file| write_trajectory_csv(file, trajectory))
 }
 
 /// The CSV text of a trajectory for `path`, after checking that every number in it is finite.
@@ -55,11 +60,10 @@ pub fn trajectory_text(path: &Path, trajectory: &Trajectory) -> Result<String, F
 /// The message.
 pub fn check_finite(trajectory: &Trajectory) -> Result<(), String> {
     for s in &trajectory.samples {
-        let mut fields = vec![("time_s", s.time_s)];
-        if let Some(p) = &s.pose {
+        let pose = s.pose.as_ref().map(|p| {
             let t = p.world_from_tool.translation.vector;
             let q = p.world_from_tool.rotation.quaternion();
-            fields.extend([
+            [
                 ("x_mm", t.x),
                 ("y_mm", t.y),
                 ("z_mm", t.z),
@@ -71,10 +75,12 @@ pub fn check_finite(trajectory: &Trajectory) -> Result<(), String> {
                 ("tip_y_mm", p.tip_in_world.y),
                 ("tip_z_mm", p.tip_in_world.z),
                 ("rms_mm", p.rms_mm),
-            ]);
-        }
-        fields.extend(s.tip_std_mm.map(|v| ("tip_std_mm", v)));
-        if let Some((name, value)) = fields.iter().find(|(_, v)| !v.is_finite()) {
+            ]
+        });
+        let mut fields = std::iter::once(("time_s", s.time_s))
+            .chain(pose.into_iter().flatten())
+            .chain(s.tip_std_mm.map(|v| ("tip_std_mm", v)));
+        if let Some((name, value)) = fields.find(|(_, v)| !v.is_finite()) {
             return Err(format!(
                 "frame {}: {name} is {value}, not a finite number; nothing written",
                 s.frame.0
@@ -87,62 +93,131 @@ pub fn check_finite(trajectory: &Trajectory) -> Result<(), String> {
 /// The CSV text of a trajectory.
 #[must_use]
 pub fn trajectory_csv(trajectory: &Trajectory) -> String {
-    let mut out = String::with_capacity(160 * (trajectory.len() + 1));
-    out.push_str(&CONTRACT_COLUMNS.join(","));
-    for c in EXTRA_COLUMNS {
-        out.push(',');
-        out.push_str(c);
-    }
-    out.push('\n');
+    let mut out = Vec::with_capacity(160 * (trajectory.len() + 1));
+    // Writing to a Vec cannot fail.
+    let _ = write_trajectory_csv(&mut out, trajectory);
+    // Every byte pushed is ASCII.
+    String::from_utf8(out).unwrap_or_else(|e| String::from_utf8_lossy(e.as_bytes()).into_owned())
+}
+
+/// Rows formatted by one thread before the text is written: about 300 KB.
+const ROWS_PER_BLOCK: usize = 2048;
+
+/// Writes the CSV text of a trajectory to `out`: blocks of [`ROWS_PER_BLOCK`] rows formatted
+/// side by side, one per thread, each in its own reused buffer, then written in order. The
+/// text is never held whole.
+///
+/// # Errors
+/// What `out` returns.
+pub fn write_trajectory_csv(
+    out: &mut impl std::io::Write,
+    trajectory: &Trajectory,
+) -> std::io::Result<()> {
+    let mut header = Vec::new();
+    push_header(&mut header);
+    out.write_all(&header)?;
     let quaternions = trajectory.continuous_quaternions();
-    for (sample, q) in trajectory.samples.iter().zip(quaternions) {
-        // Nanoseconds: distinct and uniform up to `trajectory::MAX_SAMPLE_RATE_HZ`.
-        let _ = write!(out, "{},{:.9}", sample.frame.0, sample.time_s);
-        match (&sample.pose, q) {
-            (Some(p), Some(q)) => {
-                let t = p.world_from_tool.translation.vector;
-                let _ = write!(
-                    out,
-                    ",{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.9},{:.6},{:.6},{:.6},{},{:.6}",
-                    t.x,
-                    t.y,
-                    t.z,
-                    q.w,
-                    q.x,
-                    q.y,
-                    q.z,
-                    p.tip_in_world.x,
-                    p.tip_in_world.y,
-                    p.tip_in_world.z,
-                    p.markers,
-                    p.rms_mm
-                );
-            }
-            _ => out.push_str(",,,,,,,,,,,,"),
+    let rows: Vec<(&Sample, Option<&Quat>)> = trajectory
+        .samples
+        .iter()
+        .zip(quaternions.iter().map(Option::as_ref))
+        .collect();
+    let threads = rayon::current_num_threads().max(1);
+    let mut buffers: Vec<Vec<u8>> = vec![Vec::with_capacity(ROWS_PER_BLOCK * 180); threads];
+    for batch in rows.chunks(threads * ROWS_PER_BLOCK) {
+        buffers
+            .par_iter_mut()
+            .zip(batch.par_chunks(ROWS_PER_BLOCK))
+            .for_each(|(buffer, block)| {
+                buffer.clear();
+                for (sample, q) in block {
+                    push_row(buffer, sample, *q);
+                }
+            });
+        let blocks = batch.len().div_ceil(ROWS_PER_BLOCK);
+        for buffer in &buffers[..blocks] {
+            out.write_all(buffer)?;
         }
-        let filled = u8::from(sample.source == PoseSource::Filled);
-        let _ = write!(out, ",{filled},");
-        if let Some(std) = sample.tip_std_mm {
-            let _ = write!(out, "{std:.6}");
-        }
-        let status = match sample.pose {
-            Some(_) if sample.status == Status::Lost => Status::Degraded,
-            Some(_) => sample.status,
-            None => Status::Lost,
-        };
-        let _ = writeln!(out, ",{status}");
     }
-    out
+    Ok(())
+}
+
+fn push_header(out: &mut Vec<u8>) {
+    out.extend_from_slice(CONTRACT_COLUMNS.join(",").as_bytes());
+    for c in EXTRA_COLUMNS {
+        out.push(b',');
+        out.extend_from_slice(c.as_bytes());
+    }
+    out.push(b'\n');
+}
+
+/// One row: millimetres with 6 decimals, quaternions and seconds with 9 (nanoseconds: distinct
+/// and uniform up to `trajectory::MAX_SAMPLE_RATE_HZ`), exactly as `format!("{:.6}")` and
+/// `format!("{:.9}")` write them ([`push_fixed`]).
+fn push_row(out: &mut Vec<u8>, sample: &Sample, q: Option<&Quat>) {
+    let mut integer = itoa::Buffer::new();
+    out.extend_from_slice(integer.format(sample.frame.0).as_bytes());
+    out.push(b',');
+    push_fixed(out, sample.time_s, 9);
+    match (&sample.pose, q) {
+        (Some(p), Some(q)) => {
+            let t = p.world_from_tool.translation.vector;
+            let tip = p.tip_in_world;
+            let numbers = [
+                (t.x, 6),
+                (t.y, 6),
+                (t.z, 6),
+                (q.w, 9),
+                (q.x, 9),
+                (q.y, 9),
+                (q.z, 9),
+                (tip.x, 6),
+                (tip.y, 6),
+                (tip.z, 6),
+            ];
+            for (value, decimals) in numbers {
+                out.push(b',');
+                push_fixed(out, value, decimals);
+            }
+            out.push(b',');
+            out.extend_from_slice(integer.format(p.markers).as_bytes());
+            out.push(b',');
+            push_fixed(out, p.rms_mm, 6);
+        }
+        _ => out.extend_from_slice(b",,,,,,,,,,,,"),
+    }
+    out.extend_from_slice(if sample.source == PoseSource::Filled {
+        b",1,"
+    } else {
+        b",0,"
+    });
+    if let Some(std) = sample.tip_std_mm {
+        push_fixed(out, std, 6);
+    }
+    let status = match sample.pose {
+        Some(_) if sample.status == Status::Lost => Status::Degraded,
+        Some(_) => sample.status,
+        None => Status::Lost,
+    };
+    out.push(b',');
+    out.extend_from_slice(status.name().as_bytes());
+    out.push(b'\n');
 }
 
 /// Reads and checks a trajectory CSV: the contract's header, frames strictly increasing,
 /// times finite and strictly increasing, pose fields all present or all empty, unit quaternions.
+/// The file is read a piece at a time, never held whole.
 ///
 /// # Errors
+/// [`FileError::Read`]; [`FileError::Invalid`] when it is not UTF-8;
 /// [`FileError::InvalidLine`] naming the line and the column.
 pub fn read_trajectory(path: &Path) -> Result<Trajectory, FileError> {
-    let text = read_text(path)?;
-    parse_trajectory(path, &text)
+    let size_bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+    let mut reader = TrajectoryReader::new(path, usize::try_from(size_bytes).unwrap_or(0));
+    read_line_chunks(path, |first_line, text| {
+        reader.lines_side_by_side(first_line, text)
+    })?;
+    reader.finish()
 }
 
 /// Parses trajectory CSV text; `path` only names the source in errors.
@@ -150,73 +225,218 @@ pub fn read_trajectory(path: &Path) -> Result<Trajectory, FileError> {
 /// # Errors
 /// As [`read_trajectory`].
 pub fn parse_trajectory(path: &Path, text: &str) -> Result<Trajectory, FileError> {
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')));
-    let (_, header) = lines
-        .next()
-        .ok_or_else(|| FileError::invalid(path, "empty file: no header"))?;
+    let mut reader = TrajectoryReader::new(path, text.len());
+    reader.lines(1, text)?;
+    reader.finish()
+}
+
+/// Where the optional columns are, from the header.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    columns: usize,
+    filled: Option<usize>,
+    std: Option<usize>,
+    status: Option<usize>,
+}
+
+/// A trajectory CSV read a piece of whole lines at a time. Fields are slices of the text (one
+/// list per piece) and numbers are read by [`parse_f64`]: nothing is allocated per row.
+#[derive(Debug)]
+struct TrajectoryReader<'p> {
+    path: &'p Path,
+    /// Bytes of the whole text, to size `samples` from the first row's length.
+    size_bytes: usize,
+    layout: Option<Layout>,
+    samples: Vec<Sample>,
+}
+
+impl<'p> TrajectoryReader<'p> {
+    fn new(path: &'p Path, size_bytes: usize) -> Self {
+        Self {
+            path,
+            size_bytes,
+            layout: None,
+            samples: Vec::new(),
+        }
+    }
+
+    /// Reads the lines of `text`, the first numbered `first_line`; returns how many there were.
+    fn lines(&mut self, first_line: usize, text: &str) -> Result<usize, FileError> {
+        let path = self.path;
+        let mut count = 0;
+        let mut fields: Vec<&str> = Vec::with_capacity(self.layout.map_or(0, |l| l.columns));
+        for row in text.lines() {
+            let line = first_line + count;
+            count += 1;
+            let row = row.trim_end_matches('\r');
+            let Some(layout) = self.layout else {
+                let layout = header_layout(row).ok_or_else(|| {
+                    FileError::invalid_line(
+                        path,
+                        line,
+                        format!("header must start with {}", CONTRACT_COLUMNS.join(",")),
+                    )
+                })?;
+                self.layout = Some(layout);
+                continue;
+            };
+            if row.trim().is_empty() {
+                continue;
+            }
+            if self.samples.capacity() == 0 {
+                // Rows are about as long as the first: one allocation in the common case.
+                self.samples.reserve(self.size_bytes / (row.len() + 1) + 1);
+            }
+            split_fields(row, &mut fields);
+            if fields.len() != layout.columns {
+                return Err(FileError::invalid_line(
+                    path,
+                    line,
+                    format!("{} fields, header has {}", fields.len(), layout.columns),
+                ));
+            }
+            let sample = parse_row(&fields, layout.filled, layout.std, layout.status)
+                .map_err(|m| FileError::invalid_line(path, line, m))?;
+            if let Some(previous) = self.samples.last() {
+                if sample.frame <= previous.frame {
+                    return Err(FileError::invalid_line(
+                        path,
+                        line,
+                        format!(
+                            "frame {} does not follow frame {}",
+                            sample.frame.0, previous.frame.0
+                        ),
+                    ));
+                }
+                if sample.time_s <= previous.time_s {
+                    return Err(FileError::invalid_line(
+                        path,
+                        line,
+                        format!(
+                            "time_s {} does not increase (previous {})",
+                            sample.time_s, previous.time_s
+                        ),
+                    ));
+                }
+            }
+            self.samples.push(sample);
+        }
+        Ok(count)
+    }
+
+    /// As [`Self::lines`], the text cut at line breaks into one part per thread, read side by
+    /// side and joined in order. On any error, in a part or where two parts meet, the text is
+    /// read again by [`Self::lines`], so the error is the one a reading in order meets first.
+    fn lines_side_by_side(&mut self, first_line: usize, text: &str) -> Result<usize, FileError> {
+        let Some(layout) = self.layout else {
+            return self.lines(first_line, text);
+        };
+        let path = self.path;
+        let parts: Vec<Result<(Vec<Sample>, usize), FileError>> =
+            split_at_lines(text, rayon::current_num_threads())
+                .into_par_iter()
+                .map(|part| {
+                    let mut reader = TrajectoryReader {
+                        path,
+                        size_bytes: part.len(),
+                        layout: Some(layout),
+                        samples: Vec::new(),
+                    };
+                    let count = reader.lines(first_line, part)?;
+                    Ok((reader.samples, count))
+                })
+                .collect();
+        let Ok(parts) = parts.into_iter().collect::<Result<Vec<_>, _>>() else {
+            return self.lines(first_line, text);
+        };
+        let mut previous = self.samples.last();
+        for (samples, _) in &parts {
+            if let (Some(p), Some(first)) = (previous, samples.first()) {
+                if !(first.frame > p.frame && first.time_s > p.time_s) {
+                    return self.lines(first_line, text);
+                }
+            }
+            previous = samples.last().or(previous);
+        }
+        let mut count = 0;
+        for (samples, lines) in parts {
+            if self.samples.capacity() == 0 {
+                let rows = samples.len().max(1);
+                self.samples
+                    .reserve(self.size_bytes / (text.len() / rows).max(1) + rows);
+            }
+            self.samples.extend_from_slice(&samples);
+            count += lines;
+        }
+        Ok(count)
+    }
+
+    fn finish(self) -> Result<Trajectory, FileError> {
+        if self.layout.is_none() {
+            return Err(FileError::invalid(self.path, "empty file: no header"));
+        }
+        Ok(Trajectory {
+            samples: self.samples,
+        })
+    }
+}
+
+/// `text` cut after line breaks into at most `parts` pieces of about equal length.
+fn split_at_lines(text: &str, parts: usize) -> Vec<&str> {
+    let mut pieces = Vec::with_capacity(parts);
+    let mut rest = text;
+    for remaining in (2..=parts).rev() {
+        let target = rest.len() / remaining;
+        let Some(at) = rest.as_bytes()[target..].iter().position(|&b| b == b'\n') else {
+            break;
+        };
+        if target + at + 1 == rest.len() {
+            break;
+        }
+        // After a one-byte line break: a character boundary.
+        let (piece, tail) = rest.split_at(target + at + 1);
+        pieces.push(piece);
+        rest = tail;
+    }
+    pieces.push(rest);
+    pieces
+}
+
+/// The layout a header gives, or `None` when it does not start with the contract's columns.
+fn header_layout(header: &str) -> Option<Layout> {
     let columns: Vec<&str> = header.split(',').map(str::trim).collect();
     if columns.len() < CONTRACT_COLUMNS.len()
         || columns[..CONTRACT_COLUMNS.len()] != CONTRACT_COLUMNS
     {
-        return Err(FileError::invalid_line(
-            path,
-            1,
-            format!("header must start with {}", CONTRACT_COLUMNS.join(",")),
-        ));
+        return None;
     }
-    let filled_column = columns.iter().position(|c| *c == "filled");
-    let std_column = columns.iter().position(|c| *c == "tip_std_mm");
-    let status_column = columns.iter().position(|c| *c == "status");
-    let mut samples: Vec<Sample> = Vec::new();
-    for (line, row) in lines {
-        if row.trim().is_empty() {
-            continue;
+    let position = |name: &str| columns.iter().position(|c| *c == name);
+    Some(Layout {
+        columns: columns.len(),
+        filled: position("filled"),
+        std: position("tip_std_mm"),
+        status: position("status"),
+    })
+}
+
+/// `row`'s comma-separated fields, trimmed, into `fields` (emptied first).
+fn split_fields<'a>(row: &'a str, fields: &mut Vec<&'a str>) {
+    fields.clear();
+    let mut start = 0;
+    for (i, b) in row.bytes().enumerate() {
+        if b == b',' {
+            // A comma is one byte: `start..i` lies on character boundaries.
+            fields.push(row[start..i].trim());
+            start = i + 1;
         }
-        let fields: Vec<&str> = row.split(',').map(str::trim).collect();
-        if fields.len() != columns.len() {
-            return Err(FileError::invalid_line(
-                path,
-                line,
-                format!("{} fields, header has {}", fields.len(), columns.len()),
-            ));
-        }
-        let sample = parse_row(&fields, filled_column, std_column, status_column)
-            .map_err(|m| FileError::invalid_line(path, line, m))?;
-        if let Some(previous) = samples.last() {
-            if sample.frame <= previous.frame {
-                return Err(FileError::invalid_line(
-                    path,
-                    line,
-                    format!(
-                        "frame {} does not follow frame {}",
-                        sample.frame.0, previous.frame.0
-                    ),
-                ));
-            }
-            if sample.time_s <= previous.time_s {
-                return Err(FileError::invalid_line(
-                    path,
-                    line,
-                    format!(
-                        "time_s {} does not increase (previous {})",
-                        sample.time_s, previous.time_s
-                    ),
-                ));
-            }
-        }
-        samples.push(sample);
     }
-    Ok(Trajectory { samples })
+    fields.push(row[start..].trim());
 }
 
 fn number(fields: &[&str], column: usize) -> Result<f64, String> {
     let name = CONTRACT_COLUMNS.get(column).copied().unwrap_or("column");
-    let value: f64 = fields[column]
-        .parse()
-        .map_err(|_| format!("{name}: '{}' is not a number", fields[column]))?;
+    let value = parse_f64(fields[column])
+        .ok_or_else(|| format!("{name}: '{}' is not a number", fields[column]))?;
     if value.is_finite() {
         Ok(value)
     } else {
@@ -239,9 +459,10 @@ fn parse_row(
     let pose = match empty {
         12 => None,
         0 => {
-            let v: Vec<f64> = (2..14)
-                .map(|c| number(fields, c))
-                .collect::<Result<_, _>>()?;
+            let mut v = [0.0; 12];
+            for (c, value) in (2..14).zip(&mut v) {
+                *value = number(fields, c)?;
+            }
             let rotation = Quat {
                 w: v[3],
                 x: v[4],
@@ -294,8 +515,7 @@ fn parse_row(
     let tip_std_mm = match std_column.map(|c| fields[c]) {
         None | Some("") => None,
         Some(text) => Some(
-            text.parse::<f64>()
-                .ok()
+            parse_f64(text)
                 .filter(|v| v.is_finite() && *v >= 0.0)
                 .ok_or_else(|| format!("tip_std_mm: '{text}' is not a non-negative number"))?,
         ),
@@ -481,6 +701,81 @@ mod tests {
                 .to_string();
             assert!(message.contains(needle), "{needle} not in {message}");
         }
+    }
+
+    fn rows_text(rows: usize) -> String {
+        let t = Trajectory {
+            samples: (0..rows)
+                .map(|i| sample(i, 0.3 + i as f64 * 0.01))
+                .collect(),
+        };
+        trajectory_csv(&t)
+    }
+
+    #[test]
+    fn a_file_read_in_pieces_and_parts_is_the_text_parsed_in_order() {
+        // 20,000 rows, about 3 MB: several 1 MiB pieces, each read in parts side by side.
+        let text = rows_text(20_000);
+        assert!(text.len() > 2 * (1 << 20));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        std::fs::write(&path, &text).unwrap();
+        let read = read_trajectory(&path).unwrap();
+        assert_eq!(read, parse_trajectory(&path, &text).unwrap());
+        assert_eq!(read.len(), 20_000);
+        // A bad row far into the file is named by its line, as a reading in order names it.
+        let mut lines: Vec<&str> = text.lines().collect();
+        lines[15_000] = "x,0.0,1,2,3,1,0,0,0,4,5,6,4,0.01,0,,ok";
+        std::fs::write(&path, lines.join("\n")).unwrap();
+        let message = read_trajectory(&path).unwrap_err().to_string();
+        assert!(message.contains(":15001: frame: 'x'"), "{message}");
+    }
+
+    #[test]
+    fn parts_read_side_by_side_give_the_errors_of_a_reading_in_order() {
+        // Every row in turn made bad (a frame that does not follow, a time that does not
+        // increase, a number that is not one), so that one of them falls at the start of a
+        // part, where only the join can see it.
+        let text = rows_text(40);
+        let lines: Vec<&str> = text.lines().collect();
+        let path = Path::new("t.csv");
+        let in_order = |text: &str| {
+            let mut reader = TrajectoryReader::new(path, text.len());
+            reader.lines(1, text).map(|_| reader.samples)
+        };
+        let side_by_side = |text: &str| {
+            let (header, rows) = text.split_at(text.find('\n').unwrap() + 1);
+            let mut reader = TrajectoryReader::new(path, text.len());
+            reader.lines(1, header).unwrap();
+            reader.lines_side_by_side(2, rows).map(|_| reader.samples)
+        };
+        assert_eq!(side_by_side(&text).unwrap(), in_order(&text).unwrap());
+        for bad in 2..lines.len() {
+            for replacement in [
+                lines[bad - 1].to_string(),
+                lines[bad].replacen(",0.", ",-1.", 1),
+                lines[bad].replacen(",4,", ",4.5,", 1),
+            ] {
+                let mut changed = lines.clone();
+                changed[bad] = &replacement;
+                let changed = changed.join("\n");
+                let expected = in_order(&changed).unwrap_err().to_string();
+                assert_eq!(side_by_side(&changed).unwrap_err().to_string(), expected);
+            }
+        }
+    }
+
+    #[test]
+    fn cut_at_line_breaks_into_parts_of_about_equal_length() {
+        let text = "a\nbb\nccc\ndddd\neeeee\n";
+        for parts in 1..8 {
+            let pieces = split_at_lines(text, parts);
+            assert_eq!(pieces.concat(), text);
+            assert!(pieces.len() <= parts);
+            assert!(pieces.iter().all(|p| p.ends_with('\n')));
+        }
+        // The cut comes after the line that holds the middle byte.
+        assert_eq!(split_at_lines(text, 2), ["a\nbb\nccc\ndddd\n", "eeeee\n"]);
     }
 
     proptest! {

@@ -340,13 +340,19 @@ impl Butterworth {
 
     /// Runs the cascade over `signal` in place (scipy's `sosfilt`), starting from the steady
     /// state scaled by `initial`.
-    fn filter_from_steady_state(&self, signal: &mut [f64], initial: f64) {
+    /// `signal` is any walk over the samples: forward, or backward for the second pass of
+    /// `filtfilt` (no reversed copy).
+    fn filter_from_steady_state<'a>(
+        &self,
+        signal: impl Iterator<Item = &'a mut f64>,
+        initial: f64,
+    ) {
         let mut state: Vec<[f64; 2]> = self
             .steady_state()
             .iter()
             .map(|z| [z[0] * initial, z[1] * initial])
             .collect();
-        for x in signal.iter_mut() {
+        for x in signal {
             let mut value = *x;
             for (section, z) in self.sections.iter().zip(&mut state) {
                 value = section.step(z, value);
@@ -428,19 +434,19 @@ impl Butterworth {
         extended.extend((0..len).map(centred));
         extended.extend((1..=edge).map(|k| 2.0 * last - centred(len - 1 - k)));
         let x0 = extended[0];
-        self.filter_from_steady_state(&mut extended, x0);
-        extended.reverse();
-        let y0 = extended[0];
-        self.filter_from_steady_state(&mut extended, y0);
-        extended.reverse();
-        let out: Vec<f64> = extended[edge..edge + len]
-            .iter()
-            .map(|v| v + offset)
-            .collect();
-        if let Some((index, &value)) = out.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        self.filter_from_steady_state(extended.iter_mut(), x0);
+        let y0 = extended[extended.len() - 1];
+        self.filter_from_steady_state(extended.iter_mut().rev(), y0);
+        // The padding dropped in place: no second buffer.
+        extended.copy_within(edge..edge + len, 0);
+        extended.truncate(len);
+        for v in &mut extended {
+            *v += offset;
+        }
+        if let Some((index, &value)) = extended.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(FilterError::NotFiniteOutput { index, value });
         }
-        Ok(out)
+        Ok(extended)
     }
 
     /// `|H(e^{iω})|` at `frequency_hz`, single pass: the product of the sections' responses.

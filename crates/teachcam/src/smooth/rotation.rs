@@ -72,8 +72,18 @@ pub fn roll_back(
     rotations
         .iter()
         .zip(unrolled.iter().zip(smoothed))
-        .map(|(r, (v, s))| r * exp(&(s - v)))
+        .map(|(r, (v, s))| corrected(r, v, s))
         .collect()
+}
+
+/// One rotation moved by its smoothed correction: `R · exp(smoothed - unrolled)`.
+#[must_use]
+pub fn corrected(
+    rotation: &UnitQuaternion<f64>,
+    unrolled: &Vector3<f64>,
+    smoothed: &Vector3<f64>,
+) -> UnitQuaternion<f64> {
+    rotation * exp(&(smoothed - unrolled))
 }
 
 #[cfg(test)]

@@ -1,0 +1,297 @@
+//! Numbers in CSV text, written and read without building a `String` per number.
+//!
+//! - [`push_fixed`]: `x` with `N` decimals, byte for byte what `format!("{x:.N$}")` writes.
+//!   That text is the exact binary value of `x` rounded to `N` decimals, the sign kept for
+//!   every negative value (`-0.000000` too). Fast path: `y = fl(|x| · 10^N)` (`10^N` exact for
+//!   `N ≤ 15`) is within half an ulp of the exact product, so `round(y)` is the exact product's
+//!   rounding unless `y` lies within one ulp of a half-integer; then, and for `|y| ≥ 2^52`,
+//!   NaN and infinities, the standard formatter writes it. The digits are then those of an
+//!   integer, two at a time.
+//! - [`parse_f64`]: `str::parse::<f64>` through `fast-float2` (Lemire's algorithm, correctly
+//!   rounded like the standard parser, about twice as fast on this file format), the same
+//!   syntax accepted.
+//!
+//! Each is checked against the standard library on random and edge values
+//! (`io/decimal.rs` tests).
+
+use std::io::Write as _;
+
+/// Largest number of decimals the fast path of [`push_fixed`] takes (`10^15 < 2^53`).
+const MAX_FAST_DECIMALS: usize = 15;
+
+/// `10^k` for `k ≤ 15`, each exact in `f64` and `u64`.
+const POW10: [u64; MAX_FAST_DECIMALS + 1] = [
+    1,
+    10,
+    100,
+    1_000,
+    10_000,
+    100_000,
+    1_000_000,
+    10_000_000,
+    100_000_000,
+    1_000_000_000,
+    10_000_000_000,
+    100_000_000_000,
+    1_000_000_000_000,
+    10_000_000_000_000,
+    100_000_000_000_000,
+    1_000_000_000_000_000,
+];
+
+/// `2^52`: below it every `f64` has an ulp of at most 1/2 and its floor is exact.
+const TWO_POW_52: f64 = 4_503_599_627_370_496.0;
+
+/// Appends `value` with `decimals` digits after the point, exactly as
+/// `format!("{value:.decimals$}")` would.
+pub fn push_fixed(out: &mut Vec<u8>, value: f64, decimals: usize) {
+    let Some(scaled) = fixed_digits(value, decimals) else {
+        // Writing to a Vec cannot fail.
+        let _ = write!(out, "{value:.decimals$}");
+        return;
+    };
+    if value.is_sign_negative() {
+        out.push(b'-');
+    }
+    // `scaled < 2^52 < 10^16`: its 16 digits (leading zeros included) as two independent
+    // halves of 8, which run side by side; a point at `decimals ≤ 15` places from the end
+    // leaves at least one digit before it.
+    let mut digits = [b'0'; 16];
+    let (high, low) = (scaled / 100_000_000, scaled % 100_000_000);
+    push_eight_digits(&mut digits[..8], high as u32);
+    push_eight_digits(&mut digits[8..], low as u32);
+    let point = digits.len() - decimals;
+    let first = digits[..point - 1]
+        .iter()
+        .position(|&d| d != b'0')
+        .unwrap_or(point - 1);
+    out.extend_from_slice(&digits[first..point]);
+    if decimals > 0 {
+        out.push(b'.');
+        out.extend_from_slice(&digits[point..]);
+    }
+}
+
+/// The eight decimal digits of `value < 10^8`, leading zeros included, two at a time.
+fn push_eight_digits(place: &mut [u8], value: u32) {
+    let (high, low) = (value / 10_000, value % 10_000);
+    for (k, pair) in [high / 100, high % 100, low / 100, low % 100]
+        .into_iter()
+        .enumerate()
+    {
+        let pair = 2 * pair as usize;
+        place[2 * k..2 * k + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+    }
+}
+
+/// `00`, `01`, ..., `99`.
+const DIGIT_PAIRS: &[u8; 200] = b"\
+0001020304050607080910111213141516171819\
+2021222324252627282930313233343536373839\
+4041424344454647484950515253545556575859\
+6061626364656667686970717273747576777879\
+8081828384858687888990919293949596979899";
+
+/// `|value| · 10^decimals` rounded to the nearest integer, when `f64` arithmetic decides it
+/// (see the module docs); `None` sends the value to the standard formatter.
+fn fixed_digits(value: f64, decimals: usize) -> Option<u64> {
+    let unit = *POW10.get(decimals)?;
+    let scaled = value.abs() * unit as f64;
+    // NaN too: it is not finite.
+    if !scaled.is_finite() || scaled >= TWO_POW_52 {
+        return None;
+    }
+    // Truncation is the floor here (`0 ≤ scaled < 2^52`), and a conversion, not a libm call.
+    let floor = scaled as u64;
+    // Exact: `floor` is 0, or within a factor 2 of `scaled` (Sterbenz).
+    let fraction = scaled - floor as f64;
+    // One ulp of `scaled` bounds twice the product's rounding error; `fraction - 0.5` is exact
+    // where it matters (`fraction` in [1/4, 1]).
+    if (fraction - 0.5).abs() <= scaled * f64::EPSILON {
+        return None;
+    }
+    Some(floor + u64::from(fraction > 0.5))
+}
+
+/// `text` as an `f64`, accepting what `str::parse::<f64>` accepts (decimal or exponent
+/// notation, a sign, `inf`, `infinity`, `nan` in any case) and giving the same bits;
+/// `None` when `text` is not a number (the caller names the field).
+#[must_use]
+pub fn parse_f64(text: &str) -> Option<f64> {
+    // fast-float2 also takes a leading `+` and the same special names; it reads exactly what
+    // the standard parser reads (tested below).
+    fast_float2::parse(text).ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn fixed(value: f64, decimals: usize) -> String {
+        let mut out = Vec::new();
+        push_fixed(&mut out, value, decimals);
+        String::from_utf8(out).unwrap()
+    }
+
+    /// Values where a formatter goes wrong: signs of zero, exact ties in binary (x.5 at every
+    /// scale the CSV uses), their neighbours one ulp away, the largest and smallest magnitudes,
+    /// the fast path's limit 2^52, carries into a new digit (9.9999995).
+    fn edge_values() -> Vec<f64> {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            1.5,
+            2.5,
+            -2.5,
+            0.125,
+            0.375,
+            1e-7,
+            -1e-7,
+            5e-7,
+            -5e-7,
+            4.999_999_5e-7,
+            0.000_000_5,
+            0.000_001_5,
+            0.000_002_5,
+            0.000_000_000_5,
+            0.000_000_001_5,
+            9.999_999_5,
+            -9.999_999_5,
+            999_999.999_999_5,
+            0.1 + 0.2,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            5e-324,
+            f64::MAX,
+            f64::MIN,
+            TWO_POW_52 / 1e6,
+            TWO_POW_52 / 1e9,
+            (TWO_POW_52 - 1.0) / 1e6,
+            1e15,
+            1e16,
+            1e21,
+            1e22,
+            123_456_789.123_456_78,
+            3_600.0,
+            3_599.99,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        // Exact binary ties at 6 and 9 decimals: k/2 · 10^-N is a tie only when it is exact,
+        // which k/2^m with small m is: 0.0000005 is not exact, but 2^-21 etc. sit near ties.
+        for m in 1..60 {
+            let v = 2f64.powi(-m);
+            values.extend([v, -v, 1.0 + v, 1.0 - v, 300.0 + v]);
+        }
+        let neighbours: Vec<f64> = values
+            .iter()
+            .filter(|v| v.is_finite())
+            .flat_map(|v| {
+                let bits = v.to_bits();
+                [
+                    f64::from_bits(bits + 1),
+                    f64::from_bits(bits.saturating_sub(1)),
+                ]
+            })
+            .collect();
+        values.extend(neighbours);
+        values
+    }
+
+    #[test]
+    fn fixed_matches_the_standard_formatter_on_edge_values() {
+        for value in edge_values() {
+            for decimals in [0, 1, 2, 6, 9, 15, 16, 20] {
+                assert_eq!(
+                    fixed(value, decimals),
+                    format!("{value:.decimals$}"),
+                    "{value:e} with {decimals} decimals"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn fixed_matches_the_standard_formatter_on_every_tie_of_a_grid() {
+        // n + 1/2 units of the last decimal, for n around the CSV's magnitudes: most are not
+        // exact in binary, so they land just above or below the tie; the fast path must tell
+        // which, or hand them to the standard formatter.
+        for decimals in [6, 9] {
+            let unit = 10f64.powi(-(decimals as i32));
+            for n in (0..20_000u64).chain(299_999_990..300_010_000) {
+                let value = (n as f64 + 0.5) * unit;
+                for v in [value, -value] {
+                    assert_eq!(fixed(v, decimals), format!("{v:.decimals$}"));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_fast_path_can_fail_its_check() {
+        // Without the tie check, 0.0000005 (just below the tie in binary) would be judged by
+        // `fl(x · 1e6) = 0.5` exactly, which is a tie: the check must send it to the fallback.
+        let scaled = 0.000_000_5_f64 * 1e6;
+        assert_eq!(scaled, 0.5);
+        assert_eq!(fixed_digits(0.000_000_5, 6), None);
+        assert_eq!(fixed(0.000_000_5, 6), "0.000000");
+        assert_eq!(fixed_digits(0.000_001_6, 6), Some(2));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+        #[test]
+        fn fixed_matches_the_standard_formatter_on_any_bits(bits in any::<u64>(), decimals in 0usize..18) {
+            let value = f64::from_bits(bits);
+            prop_assert_eq!(fixed(value, decimals), format!("{value:.decimals$}"));
+        }
+
+        #[test]
+        fn fixed_matches_the_standard_formatter_at_csv_magnitudes(
+            mantissa in -1.0f64..1.0,
+            exponent in -12i32..10,
+            decimals in prop::sample::select(vec![6usize, 9]),
+        ) {
+            let value = mantissa * 10f64.powi(exponent);
+            prop_assert_eq!(fixed(value, decimals), format!("{value:.decimals$}"));
+        }
+
+        #[test]
+        fn parse_accepts_and_reads_what_the_standard_parser_does(text in "[-+]?[0-9]{0,20}[.]?[0-9]{0,20}([eE][-+]?[0-9]{0,4})?") {
+            let ours = parse_f64(&text).map(f64::to_bits);
+            let std = text.parse::<f64>().map(f64::to_bits).ok();
+            prop_assert_eq!(ours, std, "{}", text);
+        }
+
+        #[test]
+        fn parse_agrees_with_the_standard_parser_on_any_text(text in "[-+0-9.eEinftyaINFTYA ]{0,12}") {
+            let ours = parse_f64(&text).map(f64::to_bits);
+            let std = text.parse::<f64>().map(f64::to_bits).ok();
+            prop_assert_eq!(ours, std, "{}", text);
+        }
+
+        #[test]
+        fn written_numbers_read_back(bits in any::<u64>()) {
+            let value = f64::from_bits(bits);
+            prop_assume!(value.is_finite());
+            prop_assert_eq!(parse_f64(&format!("{value}")).map(f64::to_bits), Some(bits));
+        }
+    }
+
+    #[test]
+    fn parse_agrees_on_special_names() {
+        for text in [
+            "inf", "-inf", "+inf", "Inf", "INFINITY", "infinity", "nan", "NaN", "-nan", "+NaN",
+            "infin", "na", "", "-", "+", ".", "e5", "1e", "1e+", "1.e5", ".5", "5.", "0x10", " 1",
+            "1 ", "1_0", "1,5",
+        ] {
+            let ours = parse_f64(text).map(f64::to_bits);
+            let std = text.parse::<f64>().map(f64::to_bits).ok();
+            assert_eq!(ours, std, "{text:?}");
+        }
+    }
+}
