@@ -52,8 +52,14 @@ fn demo_runs_the_pipeline_and_writes_a_self_contained_report() {
     // The demo's folder layout: every figure of the report is drawn.
     let page = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
     report::assert_every_figure_drawn(&page);
-    // Its summary reads as people write: "3 cameras (cam0, cam1, cam2)", not "3.0000".
+    // ... and a browser draws them all, with no console error.
     let model = report::model_of(&page);
+    teachcam_testdata::browser::assert_report_drawn(
+        "demo_runs_the_pipeline_and_writes_a_self_contained_report",
+        &dir.path().join("report.html"),
+        model["figures"].as_array().unwrap(),
+    );
+    // Its summary reads as people write: "3 cameras (cam0, cam1, cam2)", not "3.0000".
     let summary = model["summary"].as_array().unwrap();
     let cameras = summary.iter().find(|s| s["key"] == "cameras").unwrap();
     assert_eq!(cameras["text"], "3 cameras (cam0, cam1, cam2)");

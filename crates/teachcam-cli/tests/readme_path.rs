@@ -88,6 +88,12 @@ fn the_readme_path_runs_as_written() {
             assert!(!stderr.contains("missing"), "{line}\n{stderr}");
             let page = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
             report::assert_every_figure_drawn(&page);
+            // ... and a browser draws them all, with no console error.
+            teachcam_testdata::browser::assert_report_drawn(
+                "readme_path report",
+                &dir.path().join("report.html"),
+                report::model_of(&page)["figures"].as_array().unwrap(),
+            );
         }
         if args.first().is_some_and(|a| a == "check") {
             assert!(

@@ -279,3 +279,27 @@ pub fn check_figures_drawn(figures: &[Value], drawn: &[Value]) -> Result<(), Str
     }
     Ok(())
 }
+
+/// The whole browser check of a report page, for tests without an async runtime (the CLI's):
+/// opens `page` in headless Chromium, asserts that no console error was logged and that every
+/// slot of `figures` (the page's model, its JSON list) was drawn as [`check_figures_drawn`]
+/// asks. Says the test was skipped where the browser is not installed (a failure under
+/// `CI=true`).
+pub fn assert_report_drawn(test: &str, page: &Path, figures: &[Value]) {
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("a runtime for the browser session");
+    runtime.block_on(async {
+        let Some(browser) = Browser::open(test).await else {
+            return;
+        };
+        let drawn = browser.drawn_report(page).await;
+        let errors = browser.errors().await;
+        browser.close().await;
+        assert!(errors.is_empty(), "{test}: console errors: {errors:?}");
+        if let Err(wrong) = check_figures_drawn(figures, &drawn) {
+            panic!("{test}: {wrong}");
+        }
+    });
+}
