@@ -275,7 +275,28 @@ fn tracking_detect_output_gives_the_trajectory_of_the_images() {
         "{}",
         String::from_utf8_lossy(&from_detections.stderr)
     );
+    // --quiet: nothing on stderr, not even the gates.
+    let quiet = teachcam(&[
+        "--quiet",
+        "track",
+        r,
+        "--detections",
+        &file("d.csv"),
+        "--rig",
+        rig,
+        "--tool",
+        tool,
+        "-o",
+        &file("quiet.csv"),
+    ]);
+    assert!(quiet.status.success() && quiet.stdout.is_empty());
+    assert!(
+        quiet.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&quiet.stderr)
+    );
     let read = |name: &str| std::fs::read_to_string(file(name)).unwrap();
+    assert_eq!(read("quiet.csv"), read("detections.csv"));
     assert_eq!(read("images.csv").lines().count(), 31);
     assert_eq!(read("images.csv"), read("detections.csv"));
     assert_eq!(read("images-diag.csv"), read("detections-diag.csv"));

@@ -336,7 +336,9 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     };
     // The other gates from a sample of the detected frames.
     let gates = measure_gates_from_sample(&rig, &tool, &views, &shapes, min_roundness, &overrides);
-    eprint!("{gates}");
+    if !crate::announce::quiet() {
+        eprint!("{gates}");
+    }
     let config = gates.track_config();
     check_identifiable(&tool, &config.identify)
         .with_context(|| format!("{}", args.tool.display()))
@@ -345,16 +347,16 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(Trajectory, Vec<PathBuf>)>
     let tracker = Tracker::new(&rig, &tool, config);
     let mut tracks = tracker.track_recording(&views, &shapes);
     let stds = tip_std_mm(&rig, &tool, &tracks, &noise);
-    match guard_in_time(&mut tracks, &stds) {
-        Some(gate) => eprintln!(
+    crate::announce::say(&match guard_in_time(&mut tracks, &stds) {
+        Some(gate) => format!(
             "  {:<24} {:>8.3} mm  {}",
             "tip step per frame", gate.value, gate.reason
         ),
-        None => eprintln!(
+        None => format!(
             "  {:<24} none: too few steps between ok frames",
             "tip step per frame"
         ),
-    }
+    });
     let times: Vec<f64> = recording.sets.iter().map(|s| s.time_s).collect();
     let mut trajectory = trajectory_from_tracks(&tracks, &times);
     if let Some(synchronised) = &synchronised {
