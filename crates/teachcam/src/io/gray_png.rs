@@ -2,15 +2,17 @@
 //! `IHDR`, `IDAT`… and `IEND` only (what `teachcam simulate` and `teachcam record` write).
 //!
 //! ```text
-//! file ─► chunks, every CRC-32 checked ─► IDAT data ─► inflate (fdeflate) 32 rows at a time
+//! file ─► chunks, every CRC-32 checked ─► IDAT data ─► inflate 32 rows at a time
 //!      ─► each row "filter byte + width samples" unfiltered into the image (PNG §9.2, bpp = 1)
 //! ```
 //! The general decoder (`image` over `png`) inflates through a 32 KiB window it compacts,
 //! unfilters each row in a row buffer and copies it out; here the stream is inflated into one
 //! buffer reused by the thread (the window is the output itself, nothing moves), and each piece
 //! of rows is unfiltered while it is still in the core's cache, straight into the image. The
-//! `Sub` filter, the one the simulator writes, is a running sum: formed 16 samples at a time
-//! with SSE2 (`unfilter_sub`).
+//! inflate is [`inflate`]'s, up to four literals a table look-up, for the streams it takes
+//! (fdeflate's, which `simulate` and `record` write: codes of at most 12 bits), and fdeflate's
+//! for any other. The `Sub` filter, the one the simulator writes, is a running sum: formed 16
+//! samples at a time with SSE2 (`unfilter_sub`).
 //!
 //! Anything else (another depth or colour type, interlacing, a palette, transparency, any
 //! other chunk, a bad CRC, a stream that is short, long or corrupt) returns `None`, and the
@@ -21,6 +23,8 @@
 use std::cell::RefCell;
 
 use image::GrayImage;
+
+mod inflate;
 
 /// The eight bytes every PNG file starts with (PNG §5.2).
 const SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
@@ -145,9 +149,9 @@ fn with_row_buffer<T>(len: usize, f: impl FnOnce(&mut [u8]) -> T) -> Option<T> {
 const ROWS_PER_PIECE: usize = 32;
 
 /// The image from the zlib stream `stream` of `height` filtered rows (a filter byte and
-/// `width` samples each), inflated into `raw` (exactly its length; earlier output is the
-/// window back-references read) a piece at a time, each piece's rows unfiltered at once.
-/// `None` unless the stream is valid, fills `raw` exactly and ends with `stream`.
+/// `width` samples each), inflated into `raw` (exactly its length): by [`inflate`] when it
+/// takes the stream, by fdeflate otherwise. `None` unless the stream is valid, fills `raw`
+/// exactly and ends with `stream`.
 fn inflate_and_unfilter(
     stream: &[u8],
     raw: &mut [u8],
@@ -156,6 +160,39 @@ fn inflate_and_unfilter(
 ) -> Option<GrayImage> {
     let row_bytes = width + 1;
     let mut pixels: Vec<u8> = Vec::with_capacity(width.checked_mul(height)?);
+    // Rows unfiltered as they come, while in cache; a bad filter byte ends in `None` below.
+    let (mut rows_done, mut rows_valid) = (0, true);
+    let taken = inflate::inflate_zlib(stream, raw, ROWS_PER_PIECE * row_bytes, |done| {
+        let rows_ready = done.len() / row_bytes;
+        for row in done[rows_done * row_bytes..rows_ready * row_bytes].chunks_exact(row_bytes) {
+            rows_valid &= unfilter_into(&mut pixels, row, width).is_some();
+        }
+        rows_done = rows_ready;
+    });
+    if taken.is_none() {
+        pixels.clear();
+        fdeflate_and_unfilter(stream, raw, width, &mut pixels)?;
+    } else if !rows_valid {
+        return None;
+    }
+    GrayImage::from_raw(
+        u32::try_from(width).ok()?,
+        u32::try_from(height).ok()?,
+        pixels,
+    )
+}
+
+/// The rows of the zlib stream `stream` inflated by fdeflate into `raw` (exactly its length;
+/// earlier output is the window back-references read) a piece at a time, each piece's rows
+/// unfiltered at once onto `pixels`. `None` unless the stream is valid, fills `raw` exactly
+/// and ends with `stream`.
+fn fdeflate_and_unfilter(
+    stream: &[u8],
+    raw: &mut [u8],
+    width: usize,
+    pixels: &mut Vec<u8>,
+) -> Option<()> {
+    let row_bytes = width + 1;
     let mut inflater = fdeflate::Decompressor::new();
     inflater.ignore_adler32();
     let mut input = stream;
@@ -174,18 +211,11 @@ fn inflate_and_unfilter(
         inflated += written;
         let rows_ready = inflated / row_bytes;
         for row in raw[rows_done * row_bytes..rows_ready * row_bytes].chunks_exact(row_bytes) {
-            unfilter_into(&mut pixels, row, width)?;
+            unfilter_into(pixels, row, width)?;
         }
         rows_done = rows_ready;
     }
-    if !input.is_empty() || inflated != raw.len() {
-        return None;
-    }
-    GrayImage::from_raw(
-        u32::try_from(width).ok()?,
-        u32::try_from(height).ok()?,
-        pixels,
-    )
+    (input.is_empty() && inflated == raw.len()).then_some(())
 }
 
 /// Appends one row's samples to `pixels` (which holds the rows above it), its filter

@@ -1,0 +1,564 @@
+//! Inflating a frame file's zlib stream up to four literals per table look-up.
+//!
+//! A frame's filtered rows are mostly small numbers (the difference of neighbouring noisy
+//! pixels), so most Huffman codes of its stream are 2 to 5 bits long and one 12-bit look-up
+//! covers up to four of them. General decoders (fdeflate, zlib, libdeflate) decode one or two
+//! literals a look-up; the look-ups form one chain (each starts where the last one's codes
+//! end), so the literals a look-up yields set the speed: 1.6–2.0 times fdeflate on the
+//! simulator's frames (notes/speed.md).
+//!
+//! It takes zlib streams of dynamic-Huffman blocks whose codes are at most 12 bits long (what
+//! fdeflate, the encoder of `image` and `png` at their fast setting, writes, one block a
+//! frame) and returns `None` for anything else: stored or fixed blocks, a longer code, a code
+//! set zlib would refuse (over-subscribed, or incomplete but for a single distance code), a
+//! stream that is cut, corrupt, too long or too short for the rows. The caller then inflates
+//! with the general decoder. What it returns is RFC 1951's one output for the stream.
+
+/// Bits a table look-up reads.
+const TABLE_BITS: u32 = 12;
+/// Entries of a look-up table.
+const TABLE_SIZE: usize = 1 << TABLE_BITS;
+/// The mask of a look-up's bits.
+const TABLE_MASK: u64 = (1 << TABLE_BITS) - 1;
+/// Literals at most in one look-up (four bytes are written at a time).
+const RUN_MAX: u32 = 4;
+
+/// Length symbols 257–285: base length and extra bits (RFC 1951 §3.2.5).
+const LENGTH_BASE: [u16; 29] = [
+    3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 15, 17, 19, 23, 27, 31, 35, 43, 51, 59, 67, 83, 99, 115, 131,
+    163, 195, 227, 258,
+];
+const LENGTH_EXTRA: [u8; 29] = [
+    0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 0,
+];
+/// Distance symbols 0–29: base distance and extra bits (RFC 1951 §3.2.5).
+const DISTANCE_BASE: [u16; 30] = [
+    1, 2, 3, 4, 5, 7, 9, 13, 17, 25, 33, 49, 65, 97, 129, 193, 257, 385, 513, 769, 1025, 1537,
+    2049, 3073, 4097, 6145, 8193, 12289, 16385, 24577,
+];
+const DISTANCE_EXTRA: [u8; 30] = [
+    0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12, 13,
+    13,
+];
+/// The order a dynamic block stores the code length code's lengths in (RFC 1951 §3.2.7).
+const CODE_LENGTH_ORDER: [usize; 19] = [
+    16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2, 14, 1, 15,
+];
+/// Literal/length symbols (286, 287 never occur) and distance symbols a block may declare.
+const LITLEN_SYMBOLS: usize = 286;
+const DISTANCE_SYMBOLS: usize = 30;
+/// The end-of-block symbol.
+const END_OF_BLOCK: u16 = 256;
+
+/// A code's look-up table on the stream's next 12 bits: `symbol << 4 | code length` where a
+/// code starts, 0 where none does (an incomplete distance code).
+type SymbolTable = [u16; TABLE_SIZE];
+
+/// How a code set may fall short of complete.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Completeness {
+    /// Every bit pattern starts a code (literal/length and code length codes).
+    Complete,
+    /// As zlib allows for distances: complete, no code at all, or a single code.
+    SingleAllowed,
+}
+
+/// The canonical Huffman code of `lengths` (RFC 1951 §3.2.2) as a table on the stream's
+/// bits; `None` when a code is longer than 12 bits or the set is over-subscribed, or
+/// incomplete beyond what `completeness` allows.
+fn symbol_table(lengths: &[u8], completeness: Completeness) -> Option<Box<SymbolTable>> {
+    let mut count = [0u16; 16];
+    for &length in lengths {
+        *count.get_mut(usize::from(length))? += 1;
+    }
+    count[0] = 0;
+    if count[TABLE_BITS as usize + 1..].iter().any(|&c| c != 0) {
+        return None;
+    }
+    // The first code of each length; `unused` counts the patterns of each length left.
+    let mut first = [0u32; 16];
+    let (mut code, mut unused) = (0u32, 1i32);
+    for bits in 1..16 {
+        code = (code + u32::from(count[bits - 1])) << 1;
+        first[bits] = code;
+        unused = (unused << 1) - i32::from(count[bits]);
+        if unused < 0 {
+            return None;
+        }
+    }
+    let codes: u16 = count.iter().sum();
+    let allowed = unused == 0 || (completeness == Completeness::SingleAllowed && codes <= 1);
+    if !allowed {
+        return None;
+    }
+    let mut table: Box<SymbolTable> = Box::new([0; TABLE_SIZE]);
+    for (symbol, &length) in lengths.iter().enumerate() {
+        if length == 0 {
+            continue;
+        }
+        let bits = u32::from(length);
+        let code = first[usize::from(length)];
+        first[usize::from(length)] += 1;
+        // A code's first bit comes first in the stream: the index holds the code reversed,
+        // every pattern of the bits after it leading to the same symbol.
+        let entry = u16::try_from(symbol).ok()? << 4 | u16::from(length);
+        let reversed = code.reverse_bits() >> (32 - bits);
+        for index in (reversed as usize..TABLE_SIZE).step_by(1 << bits) {
+            table[index] = entry;
+        }
+    }
+    Some(table)
+}
+
+/// The literal runs of a literal/length code: for each 12-bit index, the literals whose
+/// codes lie whole in it, up to four.
+struct LiteralRuns {
+    /// The literals, the first in the low byte.
+    bytes: Box<[u32; TABLE_SIZE]>,
+    /// The bits the literals take `<< 3 | how many`; 0 where the index starts with a length
+    /// or end-of-block code.
+    meta: Box<[u8; TABLE_SIZE]>,
+}
+
+fn literal_runs(single: &SymbolTable) -> LiteralRuns {
+    let mut runs = LiteralRuns {
+        bytes: Box::new([0; TABLE_SIZE]),
+        meta: Box::new([0; TABLE_SIZE]),
+    };
+    for index in 0..TABLE_SIZE {
+        let (mut bits, mut count, mut bytes) = (0u32, 0u32, 0u32);
+        while count < RUN_MAX {
+            // The bits past the index's 12 read as zeros: a code counts only if whole.
+            let entry = single[index >> bits];
+            let (symbol, length) = (u32::from(entry >> 4), u32::from(entry & 15));
+            if length == 0 || symbol >= 256 || bits + length > TABLE_BITS {
+                break;
+            }
+            bytes |= symbol << (8 * count);
+            bits += length;
+            count += 1;
+        }
+        runs.bytes[index] = bytes;
+        runs.meta[index] = (bits << 3 | count) as u8;
+    }
+    runs
+}
+
+/// The stream's bits, least significant first, loaded eight bytes at a time.
+struct Bits<'a> {
+    input: &'a [u8],
+    /// The next byte of `input` to load (past its end: zeros were loaded).
+    next: usize,
+    buffer: u64,
+    /// Valid bits in `buffer`.
+    count: u32,
+}
+
+impl Bits<'_> {
+    /// At least 56 bits in the buffer (zeros past the input's end: [`Bits::bytes_read`]
+    /// tells whether any was consumed).
+    #[inline(always)]
+    fn refill(&mut self) {
+        if let Some(eight) = self.input.get(self.next..self.next + 8) {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(eight);
+            self.buffer |= u64::from_le_bytes(word) << self.count;
+            self.next += ((63 - self.count) / 8) as usize;
+            self.count |= 56;
+        } else {
+            while self.count <= 56 {
+                let byte = self.input.get(self.next).copied().unwrap_or(0);
+                self.buffer |= u64::from(byte) << self.count;
+                self.next += 1;
+                self.count += 8;
+            }
+        }
+    }
+
+    /// The next 12 bits, a table index.
+    #[inline(always)]
+    fn index(&self) -> usize {
+        (self.buffer & TABLE_MASK) as usize
+    }
+
+    #[inline(always)]
+    fn consume(&mut self, bits: u32) {
+        self.buffer >>= bits;
+        self.count -= bits;
+    }
+
+    /// The next `bits` bits as a number (at most 13 here; the caller refilled).
+    #[inline(always)]
+    fn take(&mut self, bits: u32) -> usize {
+        let value = (self.buffer & ((1 << bits) - 1)) as usize;
+        self.consume(bits);
+        value
+    }
+
+    /// Whole bytes of the input read so far (a partly read byte counts); `None` when bits
+    /// past the input's end were read: the stream is cut.
+    fn bytes_read(&self) -> Option<usize> {
+        let bits = self.next * 8 - self.count as usize;
+        let bytes = bits.div_ceil(8);
+        (bytes <= self.input.len()).then_some(bytes)
+    }
+}
+
+/// Inflates the zlib stream `stream` into `out`, which it must fill exactly, and after which
+/// only its Adler-32 may follow (not checked: the PNG chunks' CRC-32 covers the same bytes).
+/// `None` for a stream this decoder does not take or that is not valid (module doc).
+///
+/// `progress` is shown what is inflated so far (`out`'s start) each time about `piece` more
+/// bytes are, and at the end: the caller uses them while they are in the core's cache. It
+/// may have seen part of a stream that turns out `None`.
+pub(super) fn inflate_zlib(
+    stream: &[u8],
+    out: &mut [u8],
+    piece: usize,
+    mut progress: impl FnMut(&[u8]),
+) -> Option<()> {
+    let (&[method, flags], body) = stream.split_first_chunk::<2>()?;
+    // Deflate, a window of at most 32 KiB, the header's check, no preset dictionary
+    // (RFC 1950 §2.2).
+    let header = u16::from_be_bytes([method, flags]);
+    if method & 15 != 8 || method >> 4 > 7 || header % 31 != 0 || flags & 0x20 != 0 {
+        return None;
+    }
+    let mut bits = Bits {
+        input: body,
+        next: 0,
+        buffer: 0,
+        count: 0,
+    };
+    let mut written = 0;
+    let mut report = Report {
+        piece,
+        next: piece,
+        progress: &mut progress,
+    };
+    loop {
+        bits.refill();
+        let last = bits.take(1) == 1;
+        if bits.take(2) != 2 {
+            return None; // a stored or fixed block: the general decoder's
+        }
+        let tables = read_dynamic_header(&mut bits)?;
+        written = inflate_block(&mut bits, &tables, out, written, &mut report)?;
+        if last {
+            break;
+        }
+    }
+    (report.progress)(&out[..written]);
+    let read = bits.bytes_read()?;
+    (written == out.len() && read.checked_add(4)? == body.len()).then_some(())
+}
+
+/// Where the caller is next shown the output.
+struct Report<'p, P> {
+    piece: usize,
+    /// The output's length at which `progress` is called next.
+    next: usize,
+    progress: &'p mut P,
+}
+
+/// A dynamic block's tables.
+struct Tables {
+    runs: LiteralRuns,
+    litlen: Box<SymbolTable>,
+    distance: Box<SymbolTable>,
+}
+
+/// Reads a dynamic block's header (RFC 1951 §3.2.7): its code lengths, as tables.
+fn read_dynamic_header(bits: &mut Bits<'_>) -> Option<Tables> {
+    bits.refill();
+    let litlen_count = bits.take(5) + 257;
+    let distance_count = bits.take(5) + 1;
+    let code_length_count = bits.take(4) + 4;
+    if litlen_count > LITLEN_SYMBOLS || distance_count > DISTANCE_SYMBOLS {
+        return None;
+    }
+    let mut code_length_lengths = [0u8; 19];
+    for &symbol in &CODE_LENGTH_ORDER[..code_length_count] {
+        bits.refill();
+        code_length_lengths[symbol] = bits.take(3) as u8;
+    }
+    let code_lengths = symbol_table(&code_length_lengths, Completeness::Complete)?;
+    let mut lengths = [0u8; LITLEN_SYMBOLS + DISTANCE_SYMBOLS];
+    let declared = litlen_count + distance_count;
+    let mut i = 0;
+    while i < declared {
+        bits.refill();
+        let entry = code_lengths[bits.index()];
+        bits.consume(u32::from(entry & 15));
+        let (value, repeat) = match entry >> 4 {
+            length @ 0..=15 => (length as u8, 1),
+            16 => (*lengths.get(i.checked_sub(1)?)?, 3 + bits.take(2)),
+            17 => (0, 3 + bits.take(3)),
+            _ => (0, 11 + bits.take(7)),
+        };
+        lengths.get_mut(i..i + repeat)?.fill(value);
+        i += repeat;
+    }
+    if i != declared {
+        return None; // a repeat ran past the declared lengths
+    }
+    let (litlen_lengths, distance_lengths) = lengths[..declared].split_at(litlen_count);
+    if litlen_lengths[usize::from(END_OF_BLOCK)] == 0 {
+        return None;
+    }
+    let litlen = symbol_table(litlen_lengths, Completeness::Complete)?;
+    let distance = symbol_table(distance_lengths, Completeness::SingleAllowed)?;
+    Some(Tables {
+        runs: literal_runs(&litlen),
+        litlen,
+        distance,
+    })
+}
+
+/// Inflates one block's data into `out` from `written` on; how far `out` is written after
+/// it.
+fn inflate_block<P: FnMut(&[u8])>(
+    bits: &mut Bits<'_>,
+    tables: &Tables,
+    out: &mut [u8],
+    mut written: usize,
+    report: &mut Report<'_, P>,
+) -> Option<usize> {
+    loop {
+        if written >= report.next {
+            (report.progress)(&out[..written]);
+            report.next = written.saturating_add(report.piece);
+        }
+        bits.refill();
+        // Literal runs: four look-ups a refill (4 × 12 ≤ 56 bits), each writing four bytes
+        // (its run, then bytes the next run overwrites), while 16 + 1 bytes are left.
+        if written + 4 * (RUN_MAX as usize) < out.len() {
+            let mut lookups = 0;
+            while lookups < 4 {
+                let index = bits.index();
+                let meta = u32::from(tables.runs.meta[index]);
+                if meta == 0 {
+                    break;
+                }
+                out[written..written + 4].copy_from_slice(&tables.runs.bytes[index].to_le_bytes());
+                written += (meta & 7) as usize;
+                bits.consume(meta >> 3);
+                lookups += 1;
+            }
+            if lookups == 4 {
+                continue;
+            }
+            bits.refill();
+        }
+        // One symbol: a length, the block's end, or a literal near the end of `out`.
+        let entry = tables.litlen[bits.index()];
+        let (symbol, length) = (entry >> 4, u32::from(entry & 15));
+        if length == 0 {
+            return None; // no code starts here: corrupt
+        }
+        bits.consume(length);
+        if symbol < END_OF_BLOCK {
+            *out.get_mut(written)? = symbol as u8;
+            written += 1;
+            continue;
+        }
+        if symbol == END_OF_BLOCK {
+            return Some(written);
+        }
+        // A length (at most 12 + 5 bits) and a distance (12 + 13): 42 of the 56 bits.
+        let which = usize::from(symbol - 257);
+        let extra = u32::from(*LENGTH_EXTRA.get(which)?);
+        let copy = usize::from(LENGTH_BASE[which]) + bits.take(extra);
+        let entry = tables.distance[bits.index()];
+        let (symbol, length) = (usize::from(entry >> 4), u32::from(entry & 15));
+        if length == 0 || symbol >= DISTANCE_SYMBOLS {
+            return None;
+        }
+        bits.consume(length);
+        let back =
+            usize::from(DISTANCE_BASE[symbol]) + bits.take(u32::from(DISTANCE_EXTRA[symbol]));
+        let from = written.checked_sub(back)?;
+        let end = written + copy;
+        if end > out.len() {
+            return None;
+        }
+        if back >= copy {
+            out.copy_within(from..from + copy, written);
+        } else if back == 1 {
+            let byte = out[from];
+            out[written..end].fill(byte);
+        } else {
+            // Overlapping: each byte is one the copy itself wrote `back` earlier.
+            for i in written..end {
+                out[i] = out[i - back];
+            }
+        }
+        written = end;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use std::io::Write as _;
+
+    /// What fdeflate (the general decoder) makes of `stream`: the output when it is a whole
+    /// valid stream of exactly `len` bytes, Adler-32 aside.
+    fn reference(stream: &[u8], len: usize) -> Option<Vec<u8>> {
+        let mut out = vec![0; len];
+        let mut decoder = fdeflate::Decompressor::new();
+        decoder.ignore_adler32();
+        let (mut input, mut written) = (stream, 0);
+        while !decoder.is_done() {
+            let (used, wrote) = decoder.read(input, &mut out, written, true).ok()?;
+            if used == 0 && wrote == 0 && !decoder.is_done() {
+                return None;
+            }
+            input = &input[used..];
+            written += wrote;
+        }
+        (input.is_empty() && written == len).then_some(out)
+    }
+
+    fn ours(stream: &[u8], len: usize) -> Option<Vec<u8>> {
+        let mut out = vec![0xAA; len];
+        let mut shown = 0;
+        let taken = inflate_zlib(stream, &mut out, 1000, |done| {
+            assert!(done.len() >= shown, "progress went back");
+            shown = done.len();
+        });
+        taken.map(|()| {
+            assert_eq!(shown, len, "the whole output shown at the end");
+            out
+        })
+    }
+
+    /// Rows of a noisy frame with bright blobs, Sub-filtered as the simulator writes them.
+    fn filtered_noise(width: usize, height: usize, sigma: f64, seed: u64) -> Vec<u8> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut rows = Vec::with_capacity((width + 1) * height);
+        for y in 0..height {
+            rows.push(1);
+            let mut left = 0u8;
+            for x in 0..width {
+                let blob = (x as i64 - 40).pow(2) + (y as i64 - 20).pow(2) < 64;
+                let noise: f64 = (0..4).map(|_| rng.random::<f64>() - 0.5).sum::<f64>() * sigma;
+                let value = if blob {
+                    255
+                } else {
+                    (12.0 + noise).clamp(0.0, 255.0) as u8
+                };
+                rows.push(value.wrapping_sub(left));
+                left = value;
+            }
+        }
+        rows
+    }
+
+    fn fdeflate_stream(data: &[u8]) -> Vec<u8> {
+        fdeflate::compress_to_vec(data)
+    }
+
+    fn zlib_stream(data: &[u8], level: u32) -> Vec<u8> {
+        let mut encoder =
+            flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::new(level));
+        encoder.write_all(data).expect("in memory");
+        encoder.finish().expect("in memory")
+    }
+
+    #[test]
+    fn frames_written_by_fdeflate_inflate_as_fdeflate_inflates_them() {
+        for (width, height, sigma, seed) in [
+            (1280, 64, 2.0, 1),
+            (333, 41, 6.0, 2),
+            (1, 9, 1.0, 3),
+            (64, 64, 0.0, 4),
+        ] {
+            let data = filtered_noise(width, height, sigma, seed);
+            let stream = fdeflate_stream(&data);
+            let got = ours(&stream, data.len());
+            assert!(got.is_some(), "{width}x{height} sigma {sigma}: refused");
+            assert_eq!(got, Some(data.clone()));
+            assert_eq!(reference(&stream, data.len()), Some(data));
+        }
+    }
+
+    #[test]
+    fn matches_of_every_kind_inflate_as_zlib_wrote_them() {
+        // Few distinct bytes (short codes) with repeats near and far: zlib's levels write
+        // lengths and distances of many sizes, overlapping copies, several blocks.
+        let (mut taken, mut tried) = (0, 0);
+        for (size, seed) in [(3_000, 7), (20_000, 8), (150_000, 9)] {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let mut data: Vec<u8> = (0..size).map(|_| rng.random_range(0..4u8) * 3).collect();
+            for _ in 0..size / 20 {
+                let len = rng.random_range(3..300).min(size / 4);
+                let from = rng.random_range(0..size - len);
+                let to = rng.random_range(0..size - len);
+                let piece = data[from..from + len].to_vec();
+                data[to..to + len].copy_from_slice(&piece);
+            }
+            data.extend(std::iter::repeat_n(7u8, 1_000));
+            data.extend((0..900).map(|i| [1u8, 2, 3][i % 3]));
+            for level in 1..=9 {
+                let stream = zlib_stream(&data, level);
+                tried += 1;
+                let got = ours(&stream, data.len());
+                if let Some(got) = got {
+                    assert!(got == data, "{size} bytes, level {level}: wrong bytes");
+                    taken += 1;
+                }
+            }
+        }
+        assert!(taken * 2 >= tried, "only {taken} of {tried} streams taken");
+    }
+
+    #[test]
+    fn streams_it_does_not_take_or_that_are_wrong_are_refused() {
+        let data = filtered_noise(200, 30, 3.0, 6);
+        let stream = fdeflate_stream(&data);
+        // Short and long output, cut and extended streams, no Adler-32.
+        assert_eq!(ours(&stream, data.len() - 1), None);
+        assert_eq!(ours(&stream, data.len() + 1), None);
+        assert_eq!(ours(&stream[..stream.len() - 5], data.len()), None);
+        assert_eq!(ours(&stream[..stream.len() - 4], data.len()), None);
+        let mut longer = stream.clone();
+        longer.push(0);
+        assert_eq!(ours(&longer, data.len()), None);
+        // Stored blocks (level 0) and fixed-code blocks (a tiny input) are left to fdeflate.
+        assert_eq!(ours(&zlib_stream(&data, 0), data.len()), None);
+        assert_eq!(ours(&zlib_stream(b"abc", 6), 3), None);
+        // A preset dictionary, a bad header check.
+        let mut dictionary = stream.clone();
+        dictionary[1] |= 0x20;
+        assert_eq!(ours(&dictionary, data.len()), None);
+        let mut check = stream;
+        check[1] ^= 1;
+        assert_eq!(ours(&check, data.len()), None);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+        /// A damaged stream is refused, or, when it still is a whole deflate stream, gives
+        /// what fdeflate gives: never other bytes.
+        #[test]
+        fn a_damaged_stream_is_refused_or_inflated_as_fdeflate_does(
+            seed in 0u64..1_000,
+            flips in proptest::collection::vec((0usize..10_000, 0u8..8), 1..4),
+            zlib in any::<bool>(),
+        ) {
+            let data = filtered_noise(97, 23, 2.5, seed);
+            let mut stream = if zlib { zlib_stream(&data, 1) } else { fdeflate_stream(&data) };
+            for (at, bit) in flips {
+                let at = 2 + at % (stream.len() - 2);
+                stream[at] ^= 1 << bit;
+            }
+            if let Some(got) = ours(&stream, data.len()) {
+                prop_assert_eq!(Some(got), reference(&stream, data.len()));
+            }
+        }
+    }
+}
