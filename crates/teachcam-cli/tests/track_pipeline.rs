@@ -256,39 +256,37 @@ fn tracking_detect_output_gives_the_trajectory_of_the_images() {
         "{}",
         String::from_utf8_lossy(&detect.stderr)
     );
-    let from_detections = teachcam(&[
-        "track",
-        r,
-        "--detections",
-        &file("d.csv"),
-        "--rig",
-        rig,
-        "--tool",
-        tool,
-        "-o",
+    // `track --detections d.csv`, with `first` before it and `rest` after its output.
+    let detections_file = file("d.csv");
+    let track_detections = |first: &[&str], output: &str, rest: &[&str]| {
+        let mut args = first.to_vec();
+        args.extend([
+            "track",
+            r,
+            "--detections",
+            &detections_file,
+            "--rig",
+            rig,
+            "--tool",
+            tool,
+            "-o",
+            output,
+        ]);
+        args.extend(rest);
+        teachcam(&args)
+    };
+    let from_detections = track_detections(
+        &[],
         &file("detections.csv"),
-        "--diagnostics",
-        &file("detections-diag.csv"),
-    ]);
+        &["--diagnostics", &file("detections-diag.csv")],
+    );
     assert!(
         from_detections.status.success(),
         "{}",
         String::from_utf8_lossy(&from_detections.stderr)
     );
     // --quiet: nothing on stderr, not even the gates.
-    let quiet = teachcam(&[
-        "--quiet",
-        "track",
-        r,
-        "--detections",
-        &file("d.csv"),
-        "--rig",
-        rig,
-        "--tool",
-        tool,
-        "-o",
-        &file("quiet.csv"),
-    ]);
+    let quiet = track_detections(&["--quiet"], &file("quiet.csv"), &[]);
     assert!(quiet.status.success() && quiet.stdout.is_empty());
     assert!(
         quiet.stderr.is_empty(),
