@@ -7,11 +7,8 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use teachcam::camera::Rig;
-use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::source::{SourceConfig, SourceSpec};
 use teachcam::tool::Tool;
-
-use crate::Rejected;
 
 /// Set by Ctrl-C (SIGINT) or SIGTERM while `record`, `live` or `studio` runs: they finish the
 /// set in hand and end cleanly.
@@ -112,14 +109,12 @@ impl ModelFlags {
                 let scene = teachcam::source::sim::scene(*scenario, sim);
                 (
                     rig.as_deref()
-                        .map(read_rig)
-                        .transpose()
-                        .rejected()?
+                        .map(crate::load::rig)
+                        .transpose()?
                         .unwrap_or(scene.rig),
                     tool.as_deref()
-                        .map(read_tool)
-                        .transpose()
-                        .rejected()?
+                        .map(crate::load::tool)
+                        .transpose()?
                         .unwrap_or(scene.tool),
                 )
             }

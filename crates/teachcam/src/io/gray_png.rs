@@ -150,84 +150,111 @@ const ROWS_PER_PIECE: usize = 32;
 
 /// The image from the zlib stream `stream` of `height` filtered rows (a filter byte and
 /// `width` samples each), inflated into `raw` (exactly its length): by [`inflate`] when it
-/// takes the stream, by fdeflate otherwise. `None` unless the stream is valid, fills `raw`
-/// exactly and ends with `stream`.
+/// takes the stream, by fdeflate otherwise; each piece of rows unfiltered as it comes, while
+/// in cache. `None` unless the stream is valid, fills `raw` exactly and ends with `stream`, and
+/// every row's filter type is 0–4.
 fn inflate_and_unfilter(
     stream: &[u8],
     raw: &mut [u8],
     width: usize,
     height: usize,
 ) -> Option<GrayImage> {
-    let row_bytes = width + 1;
-    let mut pixels: Vec<u8> = Vec::with_capacity(width.checked_mul(height)?);
-    // Rows unfiltered as they come, while in cache; a bad filter byte ends in `None` below.
-    let (mut rows_done, mut rows_valid) = (0, true);
-    let taken = inflate::inflate_zlib(stream, raw, ROWS_PER_PIECE * row_bytes, |done| {
-        let rows_ready = done.len() / row_bytes;
-        for row in done[rows_done * row_bytes..rows_ready * row_bytes].chunks_exact(row_bytes) {
-            rows_valid &= unfilter_into(&mut pixels, row, width).is_some();
-        }
-        rows_done = rows_ready;
-    });
-    if taken.is_none() {
-        pixels.clear();
-        fdeflate_and_unfilter(stream, raw, width, &mut pixels)?;
-    } else if !rows_valid {
-        return None;
+    let piece = ROWS_PER_PIECE * (width + 1);
+    let mut rows = Unfiltered::new(width, height)?;
+    if inflate::inflate_zlib(stream, raw, piece, |done| rows.advance(done)).is_none() {
+        rows = Unfiltered::new(width, height)?;
+        fdeflate_zlib(stream, raw, piece, |done| rows.advance(done))?;
     }
-    GrayImage::from_raw(
-        u32::try_from(width).ok()?,
-        u32::try_from(height).ok()?,
-        pixels,
-    )
+    rows.image(height)
 }
 
-/// The rows of the zlib stream `stream` inflated by fdeflate into `raw` (exactly its length;
-/// earlier output is the window back-references read) a piece at a time, each piece's rows
-/// unfiltered at once onto `pixels`. `None` unless the stream is valid, fills `raw` exactly
-/// and ends with `stream`.
-fn fdeflate_and_unfilter(
+/// Inflates the zlib stream `stream` with fdeflate into `out` (exactly its length; earlier
+/// output is the window back-references read), showing `progress` the output so far every
+/// `piece` bytes. `None` unless the stream is valid, fills `out` exactly and ends with
+/// `stream`.
+fn fdeflate_zlib(
     stream: &[u8],
-    raw: &mut [u8],
-    width: usize,
-    pixels: &mut Vec<u8>,
+    out: &mut [u8],
+    piece: usize,
+    mut progress: impl FnMut(&[u8]),
 ) -> Option<()> {
-    let row_bytes = width + 1;
     let mut inflater = fdeflate::Decompressor::new();
     inflater.ignore_adler32();
     let mut input = stream;
     let mut inflated: usize = 0;
-    let mut rows_done = 0;
-    // One call more once `raw` is full: the stream's end (and Adler-32) may still be unread.
+    // One call more once `out` is full: the stream's end (and Adler-32) may still be unread.
     while !inflater.is_done() {
-        let end = inflated
-            .saturating_add(ROWS_PER_PIECE * row_bytes)
-            .min(raw.len());
-        let (consumed, written) = inflater.read(input, &mut raw[..end], inflated, true).ok()?;
+        let end = inflated.saturating_add(piece).min(out.len());
+        let (consumed, written) = inflater.read(input, &mut out[..end], inflated, true).ok()?;
         if consumed == 0 && written == 0 && !inflater.is_done() {
             return None; // cut short, or more rows than the header says
         }
         input = input.get(consumed..)?;
         inflated += written;
-        let rows_ready = inflated / row_bytes;
-        for row in raw[rows_done * row_bytes..rows_ready * row_bytes].chunks_exact(row_bytes) {
-            unfilter_into(pixels, row, width)?;
-        }
-        rows_done = rows_ready;
+        progress(&out[..inflated]);
     }
-    (input.is_empty() && inflated == raw.len()).then_some(())
+    (input.is_empty() && inflated == out.len()).then_some(())
 }
 
-/// Appends one row's samples to `pixels` (which holds the rows above it), its filter
-/// reversed. `None` for a filter type other than 0–4.
-fn unfilter_into(pixels: &mut Vec<u8>, row: &[u8], width: usize) -> Option<()> {
-    let (&filter, samples) = row.split_first()?;
-    let start = pixels.len();
-    pixels.extend_from_slice(samples);
-    let (done, current) = pixels.split_at_mut(start);
-    // Above the first row, PNG takes a row of zeros.
-    let above = done.get(start.wrapping_sub(width)..).unwrap_or(&[]);
-    unfilter_row(filter, above, current)
+/// The image's rows, unfiltered as the inflater completes them.
+struct Unfiltered {
+    /// The rows done so far, `width` samples each.
+    pixels: Vec<u8>,
+    width: usize,
+    /// False once a row had a filter type other than 0–4.
+    valid: bool,
+}
+
+impl Unfiltered {
+    /// Room for `height` rows of `width` samples (`width` ≥ 1, as the header ensures).
+    fn new(width: usize, height: usize) -> Option<Self> {
+        Some(Self {
+            pixels: Vec::with_capacity(width.checked_mul(height)?),
+            width,
+            valid: true,
+        })
+    }
+
+    /// Unfilters the whole rows of `inflated` (the stream's output so far: rows of a filter
+    /// byte and `width` samples) not done yet.
+    fn advance(&mut self, inflated: &[u8]) {
+        let row_bytes = self.width + 1;
+        let done = self.pixels.len() / self.width.max(1);
+        let ready = inflated.len() / row_bytes;
+        let new = inflated
+            .get(done * row_bytes..ready * row_bytes)
+            .unwrap_or_default();
+        for row in new.chunks_exact(row_bytes) {
+            if !self.valid {
+                return;
+            }
+            self.valid = self.push_row(row).is_some();
+        }
+    }
+
+    /// Appends one row's samples, its filter reversed. `None` for a filter type other than
+    /// 0–4.
+    fn push_row(&mut self, row: &[u8]) -> Option<()> {
+        let (&filter, samples) = row.split_first()?;
+        let start = self.pixels.len();
+        self.pixels.extend_from_slice(samples);
+        let (done, current) = self.pixels.split_at_mut(start);
+        // Above the first row, PNG takes a row of zeros.
+        let above = done.get(start.wrapping_sub(self.width)..).unwrap_or(&[]);
+        unfilter_row(filter, above, current)
+    }
+
+    /// The image, when every row was valid and all `height` are done.
+    fn image(self, height: usize) -> Option<GrayImage> {
+        if !self.valid || self.pixels.len() != self.width.checked_mul(height)? {
+            return None;
+        }
+        GrayImage::from_raw(
+            u32::try_from(self.width).ok()?,
+            u32::try_from(height).ok()?,
+            self.pixels,
+        )
+    }
 }
 
 /// Reverses one row's filter in place (PNG §9.2, one byte per pixel): `current` holds the
@@ -330,12 +357,22 @@ mod tests {
     /// adaptive choice), in IDAT chunks of `idat_bytes`. (Its stream writer: `write_image_data`
     /// at `Compression::Fast` writes unfiltered rows whatever the filter.)
     fn encode(image: &GrayImage, filter: png::Filter, idat_bytes: usize) -> Vec<u8> {
+        encode_at(image, filter, idat_bytes, png::Compression::Fast)
+    }
+
+    /// The same at another compression (`Fast` is fdeflate's stream, the others zlib's).
+    fn encode_at(
+        image: &GrayImage,
+        filter: png::Filter,
+        idat_bytes: usize,
+        compression: png::Compression,
+    ) -> Vec<u8> {
         let mut bytes = Vec::new();
         let mut encoder = png::Encoder::new(&mut bytes, image.width(), image.height());
         encoder.set_color(png::ColorType::Grayscale);
         encoder.set_depth(png::BitDepth::Eight);
         // Compression first: it resets the filter.
-        encoder.set_compression(png::Compression::Fast);
+        encoder.set_compression(compression);
         encoder.set_filter(filter);
         let mut writer = encoder.write_header().expect("header");
         let mut stream = writer.stream_writer_with_size(idat_bytes).expect("stream");
@@ -433,6 +470,38 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Streams of other encoders (stored blocks, zlib's levels) decode to the same pixels,
+    /// through [`inflate`] where it takes them and fdeflate where it does not.
+    #[test]
+    fn every_compression_decodes_to_the_image() {
+        let mut rng = ChaCha8Rng::seed_from_u64(22);
+        let image = test_image(&mut rng, 300, 40);
+        let mut refused = 0;
+        for compression in [
+            png::Compression::NoCompression,
+            png::Compression::Fastest,
+            png::Compression::Fast,
+            png::Compression::Balanced,
+            png::Compression::High,
+        ] {
+            let bytes = encode_at(&image, png::Filter::Sub, 1 << 20, compression);
+            let width = 300 + 1;
+            let mut raw = vec![0; width * 40];
+            let stream = &bytes[8 + 25 + 8..bytes.len() - 12 - 4];
+            let taken = inflate::inflate_zlib(stream, &mut raw, width, |_| {}).is_some();
+            // (fdeflate's own stream is taken: the IDAT data was cut out right.)
+            assert!(taken || !matches!(compression, png::Compression::Fast));
+            refused += usize::from(!taken);
+            assert_eq!(
+                decode_gray8(&bytes).as_ref(),
+                Some(&image),
+                "{compression:?}"
+            );
+        }
+        // At least the stored blocks go to fdeflate.
+        assert!(refused >= 1, "every stream taken by our inflate");
     }
 
     #[test]
