@@ -26,9 +26,9 @@ pub struct ReviewQuery {
     _token: Option<String>,
 }
 
-/// The take as a trajectory, refused while it holds no pose, and the simulator's truth when
-/// the take is a whole pass of the recording the truth belongs to (its frames start at 0).
-pub fn take_with_truth(studio: &Studio) -> Result<(Trajectory, Option<Trajectory>), ApiError> {
+/// The take as a trajectory, refused while it holds no pose, and whether it starts at the
+/// source's first frame.
+pub fn take(studio: &Studio) -> Result<(Trajectory, bool), ApiError> {
     let (take, from_first_frame) = {
         let live = studio.live();
         let first = live.take.samples.front().map(|s| s.frame.0);
@@ -39,6 +39,13 @@ pub fn take_with_truth(studio: &Studio) -> Result<(Trajectory, Option<Trajectory
             "the take has no pose yet: let the source run, or record one",
         ));
     }
+    Ok((take, from_first_frame))
+}
+
+/// The take, and the simulator's truth when the take is a whole pass of the recording the
+/// truth belongs to (its frames start at 0).
+fn take_with_truth(studio: &Studio) -> Result<(Trajectory, Option<Trajectory>), ApiError> {
+    let (take, from_first_frame) = take(studio)?;
     let truth = studio
         .config()
         .truth

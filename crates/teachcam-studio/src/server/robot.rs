@@ -23,7 +23,7 @@ use teachcam::robot::{Cell, pose_text, tcp_targets};
 use teachcam::trajectory::Trajectory;
 
 use super::Studio;
-use super::review::take_with_truth;
+use super::review;
 use super::security::ApiError;
 
 /// The cut-off used when the page gives none: the paper's 10 Hz.
@@ -77,7 +77,7 @@ pub fn cutoff(text: Option<&str>) -> Result<f64, ApiError> {
 
 /// The take smoothed at `cutoff_hz` as the review smooths it (outliers dropped first).
 pub fn smoothed_take(studio: &Studio, cutoff_hz: f64) -> Result<Trajectory, ApiError> {
-    let (take, _) = take_with_truth(studio)?;
+    let (take, _) = review::take(studio)?;
     smooth_for_review(&take, cutoff_hz)
         .map_err(|e| ApiError::unprocessable(format!("smoothing: {e}")))
 }
