@@ -18,6 +18,7 @@ mod flags;
 mod load;
 mod plot;
 mod progress;
+mod recording;
 
 /// The whole path on simulated data, from an empty folder; every command's own examples
 /// (`teachcam COMMAND --help`) run in the folder these leave behind.
@@ -73,7 +74,7 @@ enum Command {
 /// An error whose cause is the user's data (exit status 1), as opposed to usage or internal
 /// errors (exit status 2). Its message is the wrapped error's, on one line.
 #[derive(Debug)]
-pub struct DataRejected(anyhow::Error);
+pub struct DataRejected(pub anyhow::Error);
 
 impl std::fmt::Display for DataRejected {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -82,6 +83,18 @@ impl std::fmt::Display for DataRejected {
 }
 
 impl std::error::Error for DataRejected {}
+
+/// The tool was not found in any frame (exit status 3).
+#[derive(Debug)]
+pub struct ToolNotFound(pub String);
+
+impl std::fmt::Display for ToolNotFound {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ToolNotFound {}
 
 /// Marks a failure as the user's data being rejected (exit status 1).
 pub trait Rejected<T> {
@@ -196,7 +209,7 @@ fn main() -> ExitCode {
             eprintln!("error: {}", one_line(&format!("{error:#}")));
             if error
                 .chain()
-                .any(|cause| cause.downcast_ref::<cmd::track::ToolNotFound>().is_some())
+                .any(|cause| cause.downcast_ref::<ToolNotFound>().is_some())
             {
                 ExitCode::from(3)
             } else if error

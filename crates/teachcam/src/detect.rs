@@ -41,6 +41,7 @@ pub mod components;
 pub mod measure;
 pub mod repeatability;
 pub mod sphere;
+pub mod sets;
 pub mod threshold;
 
 use image::{DynamicImage, ImageBuffer, Luma};
@@ -51,6 +52,7 @@ use crate::geometry::Pixel;
 pub use circle::{Circle, smallest_enclosing_circle};
 pub use repeatability::{MarkerSpread, RepeatabilityConfig, repeatability};
 pub use sphere::{SphereRange, sphere_center_pixel};
+pub use sets::{CameraDetections, DetectedSet};
 pub use threshold::{Background, estimate_background};
 
 /// A grey pixel type the detector reads: 8- or 16-bit.

@@ -46,6 +46,7 @@
 //! - [`report`]: what a run's report and the studio's review show (figures as data, a typed
 //!   summary), computed once for every front end.
 
+pub mod stats;
 pub mod geometry;
 pub mod camera;
 pub mod tool;

@@ -16,6 +16,8 @@
 //! Rotation uncertainty is given about the world axes (the rotation vector of
 //! `R_measured R_trueᵀ`), in degrees.
 
+pub mod frame;
+
 use nalgebra::{Matrix3, Matrix6, SMatrix, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

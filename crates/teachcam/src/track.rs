@@ -25,7 +25,6 @@ pub mod gates;
 pub mod merged;
 pub mod reflections;
 pub mod temporal;
-pub mod uncertainty;
 
 use std::collections::BTreeMap;
 
@@ -210,6 +209,25 @@ pub enum Flag {
         /// The neighbouring frame.
         frame: usize,
     },
+    /// A rig camera took no part in the frame because it is out of the rig's use: no frames
+    /// in the recording, or its calibration sees nothing of the volume
+    /// (`crate::pipeline::rules::CameraOut`).
+    #[error("{camera} {why}")]
+    CameraOut {
+        /// The camera's name.
+        camera: String,
+        /// Why, for people.
+        why: OutReason,
+    },
+    /// The stream's gates were not learned yet: the frame was tracked with the library's
+    /// default gates.
+    #[error("gates not learned yet ({seen} of {needed} frames seen)")]
+    GatesNotLearned {
+        /// Frames seen so far.
+        seen: usize,
+        /// Frames the gates are learned from.
+        needed: usize,
+    },
     /// The registration residual is beyond the gate.
     #[error("registration residual {rms_mm:.3} mm beyond the {gate_mm:.3} mm gate")]
     RegistrationResidual {
@@ -234,7 +252,9 @@ impl Flag {
             | Self::FewerMarkers { .. }
             | Self::TooManyPairings { .. }
             | Self::MergedViewDropped { .. }
-            | Self::MergedBlobUsed { .. } => Status::Degraded,
+            | Self::MergedBlobUsed { .. }
+            | Self::CameraOut { .. }
+            | Self::GatesNotLearned { .. } => Status::Degraded,
         }
     }
 }
@@ -763,7 +783,7 @@ impl<'a> Tracker<'a> {
     /// points up to [`OUTLIER_LIMIT`] times the triangulation gate included; `None` unless
     /// three or more markers are labelled and registration leaves at most [`OUTLIER_LIMIT`]
     /// times the tool's distance ceiling.
-    fn track_from_neighbour(
+    pub fn track_from_neighbour(
         &self,
         views: &Views,
         shapes: &merged::Shapes,
@@ -858,6 +878,18 @@ pub const NEIGHBOUR_RADIUS: f64 = 0.3;
 /// Frames farthest apart a neighbour's pose labels across.
 pub const NEIGHBOUR_FRAMES: usize = 2;
 
+/// The pose a frame lends its neighbours for labelling ([`fill_from_neighbours`]): that of a
+/// frame posed `ok` or `degraded`, or labelled so itself.
+#[must_use]
+pub fn neighbour_pose(track: &FrameTrack) -> Option<ToolPose> {
+    let labelled = track
+        .flags
+        .iter()
+        .any(|f| matches!(f, Flag::LabelledFromNeighbour { .. }));
+    let pose = track.outcome.as_ref().ok()?;
+    (labelled || track.status() <= Status::Degraded).then_some(*pose)
+}
+
 /// Frames lost because too few markers fitted the tool's distances (a marker partly hidden
 /// moves its point several millimetres) are labelled from the pose of a frame next to them
 /// (at most [`NEIGHBOUR_FRAMES`] away; forward through the recording, then backward, so a run
@@ -870,14 +902,6 @@ pub fn fill_from_neighbours(
     frames: &[(&Views, &merged::Shapes)],
     tracks: &mut [FrameTrack],
 ) -> usize {
-    let anchor = |t: &FrameTrack| -> Option<ToolPose> {
-        let labelled = t
-            .flags
-            .iter()
-            .any(|f| matches!(f, Flag::LabelledFromNeighbour { .. }));
-        let pose = t.outcome.as_ref().ok()?;
-        (labelled || t.status() <= Status::Degraded).then_some(*pose)
-    };
     let mut filled = 0;
     let n = tracks.len().min(frames.len());
     let order: Vec<(usize, bool)> = (0..n)
@@ -895,7 +919,7 @@ pub fn fill_from_neighbours(
         };
         let Some((j, pose)) = near
             .into_iter()
-            .find_map(|j| Some((j, anchor(&tracks[j])?)))
+            .find_map(|j| Some((j, neighbour_pose(&tracks[j])?)))
         else {
             continue;
         };
@@ -908,6 +932,62 @@ pub fn fill_from_neighbours(
     filled
 }
 
+/// Why a rig camera is out of use.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub enum OutReason {
+    /// The recording has no frames of it.
+    NoFrames,
+    /// Over the frames measured, none of its blobs took part in a marker's point.
+    SeesNothing {
+        /// Blobs it saw in those frames.
+        blobs_seen: usize,
+        /// Frames the other cameras posed.
+        posed_frames: usize,
+    },
+}
+
+impl std::fmt::Display for OutReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NoFrames => f.write_str("has no frames in the recording: tracked without it"),
+            Self::SeesNothing {
+                blobs_seen,
+                posed_frames,
+            } => write!(
+                f,
+                "sees nothing of the volume: none of its {blobs_seen} blobs fits the other cameras in {posed_frames} posed frames (check its calibration: `teachcam doctor`)"
+            ),
+        }
+    }
+}
+
+/// The trajectory sample of frame `index` at `time_s`: its pose, status and `tip_std_mm`
+/// (`degraded` at least where `degraded` says so, e.g. blobs that could not be moved to the
+/// common time).
+#[must_use]
+pub fn sample_of(
+    index: usize,
+    time_s: f64,
+    track: &FrameTrack,
+    tip_std_mm: Option<f64>,
+    degraded: bool,
+) -> Sample {
+    match &track.outcome {
+        Ok(pose) => {
+            let status = match track.status() {
+                Status::Ok if degraded => Status::Degraded,
+                status => status,
+            };
+            Sample {
+                status,
+                tip_std_mm,
+                ..Sample::measured(FrameIndex(index), time_s, *pose)
+            }
+        }
+        Err(_) => Sample::gap(FrameIndex(index), time_s),
+    }
+}
+
 /// The temporal guard ([`temporal`]) over tracked frames: each frame whose pose is farther
 /// from its neighbours than the recording's own motion allows gets [`Flag::TemporalJump`]
 /// (an outlier). `tip_std_mm[i]` is frame `i`'s tip uncertainty (the gate's floor). Returns
@@ -916,19 +996,7 @@ pub fn guard_in_time(tracks: &mut [FrameTrack], tip_std_mm: &[Option<f64>]) -> O
     let frames: Vec<temporal::TipFrame> = tracks
         .iter()
         .enumerate()
-        .map(|(i, t)| {
-            let status = t.status();
-            temporal::TipFrame {
-                tip_in_world: t
-                    .outcome
-                    .as_ref()
-                    .ok()
-                    .filter(|_| status != Status::Outlier)
-                    .map(|p| p.tip_in_world),
-                confident: status == Status::Ok,
-                tip_std_mm: tip_std_mm.get(i).copied().flatten(),
-            }
-        })
+        .map(|(i, t)| tip_frame(t, tip_std_mm.get(i).copied().flatten()))
         .collect();
     let check = temporal::temporal_outliers(&frames);
     let gate_mm = check.gate.as_ref().map_or(f64::INFINITY, |g| g.value);
@@ -943,6 +1011,23 @@ pub fn guard_in_time(tracks: &mut [FrameTrack], tip_std_mm: &[Option<f64>]) -> O
     check.gate
 }
 
+/// A tracked frame as the temporal guard sees it: its tip unless it has no pose or is an
+/// outlier already, confident when `ok`.
+#[must_use]
+pub fn tip_frame(track: &FrameTrack, tip_std_mm: Option<f64>) -> temporal::TipFrame {
+    let status = track.status();
+    temporal::TipFrame {
+        tip_in_world: track
+            .outcome
+            .as_ref()
+            .ok()
+            .filter(|_| status != Status::Outlier)
+            .map(|p| p.tip_in_world),
+        confident: status == Status::Ok,
+        tip_std_mm,
+    }
+}
+
 /// The trajectory of tracked frames, frame `i` at `times_s[i]` (its exposure time; a frame
 /// without a time is left out), each sample with its frame's status.
 #[must_use]
@@ -951,13 +1036,7 @@ pub fn trajectory_from_tracks(tracks: &[FrameTrack], times_s: &[f64]) -> Traject
         .iter()
         .zip(times_s)
         .enumerate()
-        .map(|(i, (t, &time_s))| match &t.outcome {
-            Ok(pose) => Sample {
-                status: t.status(),
-                ..Sample::measured(FrameIndex(i), time_s, *pose)
-            },
-            Err(_) => Sample::gap(FrameIndex(i), time_s),
-        })
+        .map(|(i, (t, &time_s))| sample_of(i, time_s, t, None, false))
         .collect();
     Trajectory { samples }
 }

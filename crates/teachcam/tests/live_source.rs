@@ -6,7 +6,8 @@
     reason = "a test fails loudly on a broken fixture"
 )]
 
-use teachcam::pipeline::{PipelineConfig, TrackStream};
+use teachcam::pipeline::{StreamOptions, TrackStream};
+use teachcam::trajectory::Status;
 use teachcam::sim::Scenario;
 use teachcam::source::FrameSource;
 use teachcam::source::sim::{SimConfig, SimSource};
@@ -26,18 +27,21 @@ fn the_simulated_live_source_runs_ten_seconds_at_60_hz_with_nothing_dropped() {
     let mut frames = 0;
     let mut posed = 0;
     {
-        let stream = TrackStream::new(
-            &mut source,
-            &scene.rig,
-            &scene.tool,
-            &PipelineConfig::default(),
-        )
-        .unwrap();
+        let stream =
+            TrackStream::new(&mut source, &scene.rig, &scene.tool, StreamOptions::live(60.0))
+                .unwrap();
         for frame in stream {
             let frame = frame.unwrap();
             assert_eq!(frame.detections.index, frames, "a set went missing");
             assert!(frame.latency_s().is_some());
             posed += usize::from(frame.track.outcome.is_ok());
+            // The gates are learned from the first 2 s (120 sets): until then a frame is at
+            // best degraded, never ok; after, the clean paper scene is ok throughout.
+            if frames < 120 {
+                assert_eq!(frame.status(), Status::Degraded, "set {frames}");
+            } else {
+                assert_eq!(frame.status(), Status::Ok, "set {frames}: {}", frame.reason());
+            }
             frames += 1;
         }
     }

@@ -11,7 +11,9 @@ use std::path::Path;
 
 use teachcam::io::recording::{GrayFrame, frame_file_name, read_frame, write_png};
 use teachcam::io::{rig::read_rig, tool::read_tool};
-use teachcam::pipeline::{PipelineConfig, TrackStream};
+use teachcam::pipeline::recording::{DetectOptions, learn_from_recording};
+use teachcam::pipeline::{StreamOptions, TrackStream};
+use teachcam::track::gates::GateOverrides;
 use teachcam::sim::{Scenario, build_scene, write_scene};
 use teachcam::source::folder::FolderSource;
 use teachcam::source::{FrameSource, SourceConfig, SourceSpec, open_source};
@@ -28,8 +30,16 @@ fn short_recording(dir: &Path, frames: usize) -> teachcam::sim::Scene {
 fn track_folder(root: &Path) -> Result<Vec<teachcam::pipeline::TrackedFrame>, String> {
     let rig = read_rig(&root.join("rig.json")).unwrap();
     let tool = read_tool(&root.join("tool.json")).unwrap();
+    let learned = learn_from_recording(
+        root,
+        &rig,
+        &tool,
+        &DetectOptions::default(),
+        &GateOverrides::default(),
+    )
+    .map_err(|e| e.to_string())?;
     let mut source = FolderSource::open(root, None).map_err(|e| e.to_string())?;
-    TrackStream::new(&mut source, &rig, &tool, &PipelineConfig::default())
+    TrackStream::new(&mut source, &rig, &tool, StreamOptions::recording(learned))
         .map_err(|e| e.to_string())?
         .map(|f| f.map_err(|e| e.to_string()))
         .collect()

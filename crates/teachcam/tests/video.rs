@@ -18,7 +18,9 @@ use std::process::Command;
 use teachcam::detect::DetectConfig;
 use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::metrology::first_order;
-use teachcam::pipeline::{DetectStream, PipelineConfig, TrackStream, TrackedFrame};
+use teachcam::pipeline::recording::{DetectOptions, learn_from_recording};
+use teachcam::pipeline::{DetectStream, StreamOptions, TrackStream, TrackedFrame};
+use teachcam::track::gates::GateOverrides;
 use teachcam::sim::{Scenario, build_scene, write_scene};
 use teachcam::source::FrameSource;
 use teachcam::source::folder::FolderSource;
@@ -74,8 +76,16 @@ fn encode(root: &Path, name: &str, extension: &str, codec: &[&str]) -> std::path
 fn track(root: &Path) -> Vec<TrackedFrame> {
     let rig = read_rig(&root.join("rig.json")).unwrap();
     let tool = read_tool(&root.join("tool.json")).unwrap();
+    let learned = learn_from_recording(
+        root,
+        &rig,
+        &tool,
+        &DetectOptions::default(),
+        &GateOverrides::default(),
+    )
+    .unwrap();
     let mut source = FolderSource::open(root, None).unwrap();
-    TrackStream::new(&mut source, &rig, &tool, &PipelineConfig::default())
+    TrackStream::new(&mut source, &rig, &tool, StreamOptions::recording(learned))
         .unwrap()
         .collect::<Result<_, _>>()
         .unwrap()

@@ -7,6 +7,7 @@ use anyhow::Context;
 use serde::Serialize;
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::metrology::{first_order, monte_carlo};
+use teachcam::pipeline::batch::{TrackFiles, TrackInput, TrackOptions, track};
 use teachcam::sim::{Scenario, build_scene, write_scene};
 use teachcam::smooth::{SmoothConfig, smooth};
 use teachcam::track::TrackConfig;
@@ -80,7 +81,7 @@ fn tip_errors(truth: &Trajectory, measured: &Trajectory) -> (f64, f64, usize) {
         .filter_map(|(t, m)| Some((t.pose?.tip_in_world - m.pose?.tip_in_world).norm()))
         .collect();
     (
-        super::track::rms(&errors),
+        teachcam::stats::rms(&errors),
         errors.iter().copied().fold(0.0, f64::max),
         errors.len(),
     )
@@ -106,30 +107,32 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // 2. Detect and track on the images.
     let start = Instant::now();
     let raw_path = out.join("raw.csv");
-    super::track::track_to_files(&super::track::Args {
-        recording: recording.clone(),
-        rig: recording.join("rig.json"),
-        tool: recording.join("tool.json"),
-        output: raw_path.clone(),
-        markers_out: Some(out.join("markers.csv")),
-        diagnostics: Some(out.join("diagnostics.csv")),
-        detect: super::track::DetectFlags {
-            fps: None,
-            method: teachcam::detect::CenterMethod::Refined,
-            threshold: None,
-            near: 300.0,
-            far: 3000.0,
+    // Tracked from the files written, as `track` would be.
+    let rig = crate::load::rig(&recording.join("rig.json"))?;
+    let tool = crate::load::tool(&recording.join("tool.json"))?;
+    let run = track(
+        TrackInput::Recording(&recording),
+        &rig,
+        &tool,
+        &TrackOptions::default(),
+        &|| {},
+    )
+    .map_err(|e| crate::recording::pipeline_error(e, &recording.join("tool.json")))?;
+    run.write(
+        &rig,
+        &TrackFiles {
+            trajectory: &raw_path,
+            markers: Some(&out.join("markers.csv")),
+            diagnostics: Some(&out.join("diagnostics.csv")),
+            gates: Some(&out.join("diagnostics.gates.json")),
+            time_offsets: None,
         },
-        gates: super::track::GateFlags::default(),
-        time_offsets: None,
-        time_offsets_out: None,
-        detections: None,
-    })?;
+    )?;
     timed("detect + track", start);
     let raw = read_trajectory(&raw_path)?;
     let (raw_rms, raw_max, tracked) = tip_errors(&scene.truth, &raw);
     let predicted: Vec<f64> = raw.samples.iter().filter_map(|s| s.tip_std_mm).collect();
-    let predicted_rms = super::track::rms(&predicted);
+    let predicted_rms = teachcam::stats::rms(&predicted);
 
     // 3. Smooth: zero-phase low-pass at 10 Hz, the paper's choice for painting.
     let start = Instant::now();

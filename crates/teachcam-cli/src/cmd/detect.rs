@@ -2,20 +2,16 @@
 
 use std::path::{Path, PathBuf};
 
-use std::collections::BTreeMap;
-
 use anyhow::Context;
 use teachcam::camera::Rig;
-use teachcam::detect::{Blob, CenterMethod, DetectConfig, RoundnessChoices, Threshold};
-use teachcam::geometry::CameraId;
+use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
 use teachcam::io::{Output, check_outputs, write_atomically};
-use teachcam::pipeline::{CameraSetup, DetectStream, DetectedSet, FrameDetections};
-use teachcam::source::folder::FolderSource;
-use teachcam::source::{FrameSource, SourceCamera};
-use teachcam::track::gates::sample_frames;
+use teachcam::pipeline::CameraSetup;
+use teachcam::pipeline::recording::{DetectOptions as LibraryDetectOptions, DetectedRecording};
+use teachcam::source::SourceCamera;
 
 use crate::Rejected;
-use crate::progress::Progress;
+use crate::recording::detect_folder;
 
 /// Find the marker blobs in every frame of a recording and write their sub-pixel centres.
 ///
@@ -78,10 +74,10 @@ pub struct DetectOptions {
     #[arg(long, value_parser = crate::flags::positive)]
     pub marker_diameter: Option<f64>,
     /// Nearest distance from a camera to a marker, millimetres (with --rig).
-    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
+    #[arg(long, default_value_t = LibraryDetectOptions::default().near_mm, value_parser = crate::flags::positive)]
     pub near: f64,
     /// Farthest distance from a camera to a marker, millimetres (with --rig).
-    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
+    #[arg(long, default_value_t = LibraryDetectOptions::default().far_mm, value_parser = crate::flags::positive)]
     pub far: f64,
     /// Shot noise of the camera: noise variance per image unit of signal (1 / gain in
     /// electrons per unit). Only the predicted centre noise (`center_std_px`) uses it.
@@ -165,101 +161,6 @@ pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result
             })
         })
         .collect()
-}
-
-/// A recording folder's frames detected: every set (one instant: each camera's frame, its
-/// time and blobs), the cameras in the order of each set's entries, and the rate. `B` is
-/// [`Vec<Blob>`], or [`RoundnessChoices`] when the roundness floor is chosen afterwards.
-#[derive(Debug)]
-pub struct DetectedRecording<B = Vec<Blob>> {
-    /// The detected cameras, in the order of [`DetectedSet::cameras`].
-    pub cameras: Vec<String>,
-    /// Frames per second (`--fps`, else recording.json, else the videos', else 30).
-    pub fps: f64,
-    /// The sets, in order.
-    pub sets: Vec<DetectedSet<B>>,
-    /// The number of sets the source announced before decoding, where it knew it.
-    pub len_hint: Option<usize>,
-}
-
-impl DetectedRecording {
-    /// Each set's blobs by rig camera id (cameras the rig lacks are left out).
-    #[must_use]
-    pub fn blobs_by_camera(&self, rig: &Rig) -> Vec<BTreeMap<CameraId, Vec<Blob>>> {
-        let ids: Vec<Option<CameraId>> = self.cameras.iter().map(|c| rig.id_of(c)).collect();
-        self.sets
-            .iter()
-            .map(|set| {
-                ids.iter()
-                    .zip(&set.cameras)
-                    .filter_map(|(id, c)| Some(((*id)?, c.as_ref()?.blobs.clone())))
-                    .collect()
-            })
-            .collect()
-    }
-}
-
-impl DetectedRecording<RoundnessChoices> {
-    /// The recording as detected with roundness floor `min_roundness`; `None` below the floor
-    /// it was detected with.
-    #[must_use]
-    pub fn at(&self, min_roundness: f64) -> Option<DetectedRecording> {
-        Some(DetectedRecording {
-            cameras: self.cameras.clone(),
-            fps: self.fps,
-            sets: self
-                .sets
-                .iter()
-                .map(|set| set.at(min_roundness))
-                .collect::<Option<_>>()?,
-            len_hint: self.len_hint,
-        })
-    }
-}
-
-/// A sample of at most `at_most` sets of a source that announced `len_hint` sets: spread
-/// evenly over the recording, or its first ones when its length was not known.
-#[must_use]
-pub fn sampled_sets(len_hint: Option<usize>, at_most: usize) -> Vec<usize> {
-    match len_hint {
-        Some(count) => sample_frames(count, at_most),
-        None => (0..at_most).collect(),
-    }
-}
-
-/// Detects a recording folder's frames, PNG sub-folders and video files alike (CONTRACT,
-/// "Recording"), with each frame's time from `timestamps.csv` where it lies beside them.
-/// `cameras` chooses, from the source's cameras, which to detect and how (each frame's size is
-/// checked against its setup's, or against the camera's first frame). Frames decode and detect
-/// in parallel; a progress bar shows on a terminal.
-///
-/// # Errors
-/// Rejected data naming the folder, camera, frame or file that cannot be read, has another
-/// size, or is missing; what `cameras` returns.
-pub fn detect_folder<B: FrameDetections>(
-    root: &Path,
-    fps: Option<f64>,
-    cameras: impl FnOnce(&[SourceCamera]) -> anyhow::Result<Vec<CameraSetup>>,
-) -> anyhow::Result<DetectedRecording<B>> {
-    let mut source = FolderSource::open(root, fps).rejected()?;
-    let len_hint = source.len_hint();
-    let setups = cameras(source.cameras())?;
-    let progress = Progress::new("detect", source.len_hint().unwrap_or(0) as u64);
-    let mut stream = DetectStream::<B>::detecting(&mut source, setups).rejected()?;
-    let names = stream.camera_names();
-    let fps = stream.fps();
-    let mut sets = Vec::new();
-    for set in &mut stream {
-        sets.push(set.rejected()?);
-        progress.tick();
-    }
-    progress.finish();
-    Ok(DetectedRecording {
-        cameras: names,
-        fps,
-        sets,
-        len_hint,
-    })
 }
 
 /// The CSV text of the detections.

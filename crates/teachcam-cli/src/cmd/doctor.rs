@@ -7,12 +7,13 @@ use teachcam::correspond::Views;
 use teachcam::detect::DetectConfig;
 use teachcam::doctor::{DoctorConfig, Report, diagnose};
 use teachcam::pipeline::CameraSetup;
+use teachcam::pipeline::recording::{DetectOptions, ROUNDNESS_SAMPLE_FRAMES, gates_from_sample};
+use teachcam::pipeline::rules::FrameInput;
 use teachcam::track::Tracker;
 use teachcam::track::gates::{GateOverrides, ROUNDNESS_FLOOR, roundness_gate, sample_frames};
 use teachcam::track::merged::{BlobShape, Shapes};
 
-use crate::cmd::detect::detect_folder;
-use crate::cmd::track::{ROUNDNESS_SAMPLE_FRAMES, measure_gates_from_sample};
+use crate::recording::detect_folder;
 
 /// Say where a recording's frames are lost, what the data shows, and what to do.
 ///
@@ -42,10 +43,10 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Nearest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 300.0, value_parser = crate::flags::positive)]
+    #[arg(long, default_value_t = DetectOptions::default().near_mm, value_parser = crate::flags::positive)]
     pub near: f64,
     /// Farthest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = 3000.0, value_parser = crate::flags::positive)]
+    #[arg(long, default_value_t = DetectOptions::default().far_mm, value_parser = crate::flags::positive)]
     pub far: f64,
 }
 
@@ -126,14 +127,16 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
                 .collect()
         })
         .collect();
-    let gates = measure_gates_from_sample(
-        &rig,
-        &tool,
-        &views,
-        &shapes,
-        min_roundness,
-        &GateOverrides::default(),
-    );
+    let frames: Vec<FrameInput> = views
+        .iter()
+        .zip(&shapes)
+        .map(|(views, shapes)| FrameInput {
+            views: views.clone(),
+            shapes: shapes.clone(),
+            blob_noise_px: Vec::new(),
+        })
+        .collect();
+    let gates = gates_from_sample(&rig, &tool, &frames, min_roundness, &GateOverrides::default());
     let tracker = Tracker::new(&rig, &tool, gates.track_config());
     let tracks = tracker.track_recording(&views, &shapes);
     let config = DoctorConfig {

@@ -189,7 +189,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .filter(|s| s.pose.is_some())
         .count();
     if found == 0 {
-        return Err(anyhow::Error::new(super::track::ToolNotFound(format!(
+        return Err(anyhow::Error::new(crate::ToolNotFound(format!(
             "{}: tool '{}' not found in any of {} frames (no frame holds all its {} markers at its distances); nothing written",
             args.file.display(),
             tool.name,

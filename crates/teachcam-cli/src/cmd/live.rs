@@ -2,29 +2,38 @@
 
 use std::fmt::Write as _;
 use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use teachcam::io::trajectory::write_trajectory;
-use teachcam::pipeline::{PipelineConfig, TrackStream, TrackedFrame};
+use teachcam::pipeline::recording::DetectOptions;
+use teachcam::pipeline::{StreamOptions, TrackStream, TrackedFrame};
 use teachcam::source::{SourceSpec, open_source};
-use teachcam::trajectory::{Sample, Trajectory};
+use teachcam::track::gates::GateOverrides;
+use teachcam::trajectory::{Status, Trajectory};
 
 use crate::Rejected;
 use crate::capture::{CameraFlags, ModelFlags, parse_source, stop_requested};
 
 /// Track the tool live: capture → detect → track at camera rate, printing poses as they come.
 ///
-/// Prints one CSV row per frame set on standard output as soon as its pose is known
-/// (`frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,tip_std_mm,latency_ms`,
+/// The same pipeline as `track` (the library's one conductor): the gates are learned from the
+/// footage — for a recording (`folder:REC`) from the same sample `track` measures them, read
+/// first; for cameras and the simulator from their first 2 seconds, those frames `degraded`
+/// until then — merged blobs, mirror, labels from neighbouring frames, the temporal guard
+/// (for a recording it looks 15 frames ahead; live it sees only the past), the same σ model
+/// and status.
+///
+/// Prints one CSV row per frame set on standard output as soon as its status is final
+/// (`frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,tip_std_mm,latency_ms,status`,
 /// pose fields empty where the frame has no pose), or, with `--out`, writes the trajectory CSV
-/// at the end instead. `latency_ms` runs from the frame's exposure to its pose on this machine's
+/// (with its `status` column, as `track` writes it) at the end instead. `latency_ms` runs from the frame's exposure to its pose on this machine's
 /// clock (for V4L2 cameras from the buffer's arrival; empty for recordings, which have no
 /// exposure clock). Frames the pipeline could not take in time are dropped at the source and
 /// counted.
 ///
 /// Ends at `--seconds`, at the end of a finite source, or on Ctrl-C; `--json` then prints one
-/// line `{"frames": N, "dropped": N, "latency_ms_p50": X, "latency_ms_p99": X, ...}`.
+/// line `{"frames": N, "dropped": N, "latency_ms_p50": X, "latency_ms_p99": X, "statuses": {...}, ...}`.
 ///
 /// The simulator (`sim:paper`, the default) renders its frames ahead, before the clock starts,
 /// and plays them back and forth at `--fps`, so the numbers are the pipeline's, not the
@@ -78,13 +87,14 @@ fn row(frame: &TrackedFrame) -> String {
     }
     let _ = write!(
         text,
-        ",{},{}",
+        ",{},{},{}",
         frame
             .tip_std_mm
             .map_or_else(String::new, |s| format!("{s:.4}")),
         frame
             .latency_s()
-            .map_or_else(String::new, |l| format!("{:.3}", 1e3 * l))
+            .map_or_else(String::new, |l| format!("{:.3}", 1e3 * l)),
+        frame.status()
     );
     text
 }
@@ -94,6 +104,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let config = args.camera.source_config(&args.source, args.seconds, None);
     let (rig, tool) = args.model.load(&args.source, &config.sim)?;
     let mut source = open_source(&args.source, &config).rejected()?;
+    let tool_path = args.model.tool.as_deref().unwrap_or(Path::new("the tool file"));
+    let detect = DetectOptions {
+        fps: args.camera.fps,
+        ..DetectOptions::default()
+    };
+    let options = StreamOptions::for_source(
+        &args.source,
+        source.fps(),
+        &rig,
+        &tool,
+        detect,
+        GateOverrides::default(),
+    )
+    .map_err(|e| crate::recording::pipeline_error(e, tool_path))?;
+    let lag_frames = options.lag_frames;
     let started = Instant::now();
     let mut latencies = Vec::new();
     let mut samples = Vec::new();
@@ -103,12 +128,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.out.is_none() {
         writeln!(
             out,
-            "frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,tip_std_mm,latency_ms"
+            "frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,tip_std_mm,latency_ms,status"
         )?;
     }
-    let dropped = {
-        let mut stream = TrackStream::new(source.as_mut(), &rig, &tool, &PipelineConfig::default())
-            .rejected()?;
+    let (dropped, cameras_out) = {
+        let mut stream = TrackStream::new(source.as_mut(), &rig, &tool, options)
+            .map_err(|e| crate::recording::pipeline_error(e, tool_path))?;
         while !stop_requested() {
             if args
                 .seconds
@@ -119,24 +144,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             let Some(frame) = stream.next() else { break };
             let frame = frame.rejected()?;
             latencies.extend(frame.latency_s());
-            let index = teachcam::geometry::FrameIndex(frame.detections.index);
-            let sample = match &frame.track.outcome {
-                Ok(pose) => {
-                    posed += 1;
-                    let mut s = Sample::measured(index, frame.detections.time_s, *pose);
-                    s.tip_std_mm = frame.tip_std_mm;
-                    s
-                }
-                Err(_) => Sample::gap(index, frame.detections.time_s),
-            };
+            if frame.sample.pose.is_some() {
+                posed += 1;
+            }
             if args.out.is_none() {
                 writeln!(out, "{}", row(&frame))?;
                 out.flush()?;
             }
-            samples.push(sample);
+            samples.push(frame.sample);
         }
-        stream.stats().dropped_sets
+        (stream.stats().dropped_sets, stream.cameras_out().to_vec())
     };
+    for camera in &cameras_out {
+        crate::announce::warn(&camera.to_string());
+    }
     if let Some(path) = &args.out {
         write_trajectory(
             path,
@@ -159,6 +180,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             "latency_ms_max": latencies.last().map(|l| 1e3 * l),
             "seconds": seconds,
             "source": args.source.to_string(),
+            "statuses": statuses(&samples),
+            "lag_frames": lag_frames,
         });
         writeln!(out, "{summary}")?;
     } else {
@@ -175,6 +198,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// How many samples have each status.
+fn statuses(samples: &[teachcam::trajectory::Sample]) -> serde_json::Value {
+    let count = |status: Status| samples.iter().filter(|s| s.status == status).count();
+    serde_json::json!({
+        "ok": count(Status::Ok),
+        "degraded": count(Status::Degraded),
+        "outlier": count(Status::Outlier),
+        "lost": count(Status::Lost),
+    })
 }
 
 #[cfg(test)]

@@ -3,7 +3,9 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::cmd::detect::{DetectOptions, DetectedRecording, configs, detect_folder};
+use crate::cmd::detect::{DetectOptions, configs};
+use crate::recording::detect_folder;
+use teachcam::pipeline::recording::DetectedRecording;
 use teachcam::detect::{MarkerSpread, RepeatabilityConfig, repeatability};
 
 /// Repeatability of blob centres of static markers (the paper's Fig. 10).

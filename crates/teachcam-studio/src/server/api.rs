@@ -3,7 +3,7 @@
 //! | route | what |
 //! |---|---|
 //! | `GET /` | the page app ([`crate::assets`]) |
-//! | `GET /api/status` | `{source, frames, posed, fps, cameras, recording, ...}` |
+//! | `GET /api/status` | `{source, frames, posed, fps, cameras, recording, statuses, ...}` (`statuses`: the take's frames per status) |
 //! | `GET /api/scene` | the rig's cameras (frusta), the tool model, the work object frame |
 //! | `GET /api/live` (WebSocket) | the newest tracked frame, binary ([`super::preview`]) |
 //! | `POST /api/controls` | `{"threshold": N \| "auto", "exposure": X}` |
@@ -170,6 +170,7 @@ pub fn status_json(studio: &Studio) -> Value {
         "recording_folder": live.recorder.as_ref().map(|r| r.target().display().to_string()),
         "recordings": live.written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
         "take_frames": live.take.samples.len(),
+        "statuses": live.take.statuses(),
         "take_complete": live.take.frozen,
         "passes": live.passes,
         "error": live.error,

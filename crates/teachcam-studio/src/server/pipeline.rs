@@ -11,15 +11,16 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use teachcam::detect::{DetectConfig, Threshold};
-use teachcam::geometry::FrameIndex;
-use teachcam::pipeline::{PipelineConfig, PipelineError, TrackStream, TrackedFrame};
+use std::collections::VecDeque;
+
+use teachcam::pipeline::recording::DetectOptions;
+use teachcam::pipeline::{PipelineError, StreamOptions, TrackStream};
 use teachcam::source::sim::{SimConfig, SimSource};
 use teachcam::source::{
     CameraFrame, FrameData, FrameSet, FrameSource, SourceCamera, SourceError, SourceSpec,
     SourceStats, open_source,
 };
-use teachcam::trajectory::Sample;
+use teachcam::track::gates::GateOverrides;
 
 use super::preview::live_message;
 use super::state::{CameraCounts, ExposureControl, Studio};
@@ -69,9 +70,13 @@ pub fn open(config: &StudioConfig) -> Result<Opened, StudioError> {
     }
 }
 
+/// Sets the feed keeps for the live view and the recorder: the stream emits a set once its
+/// status is final, up to its lag (and a batch) after the feed delivered it.
+const KEPT_SETS: usize = 64;
+
 /// The source as the stream reads it: a finite source paced at its rate and decoded here (so
-/// that the live view has the pixels detection saw, decoded once), every set kept for the
-/// live view and the recorder.
+/// that the live view has the pixels detection saw, decoded once), the latest sets kept for
+/// the live view and the recorder.
 #[derive(Debug)]
 struct Feed {
     source: Box<dyn FrameSource>,
@@ -79,11 +84,11 @@ struct Feed {
     /// For a finite source: when its first set was due.
     paced_from: Option<Instant>,
     delivered: usize,
-    last: Arc<Mutex<Option<FrameSet>>>,
+    last: Arc<Mutex<VecDeque<FrameSet>>>,
 }
 
 impl Feed {
-    fn new(source: Box<dyn FrameSource>, last: Arc<Mutex<Option<FrameSet>>>) -> Self {
+    fn new(source: Box<dyn FrameSource>, last: Arc<Mutex<VecDeque<FrameSet>>>) -> Self {
         Self {
             cameras: source.cameras().to_vec(),
             paced_from: None,
@@ -135,10 +140,15 @@ impl FrameSource for Feed {
             set.exposed_at = Some(due);
         }
         self.delivered += 1;
-        *self
+        let mut last = self
             .last
             .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(set.clone());
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        last.push_back(set.clone());
+        while last.len() > KEPT_SETS {
+            last.pop_front();
+        }
+        drop(last);
         Some(Ok(set))
     }
 
@@ -147,45 +157,43 @@ impl FrameSource for Feed {
     }
 }
 
-/// The detector configuration of every rig camera under the page's threshold.
-fn pipeline_config(studio: &Studio, threshold: Option<u32>) -> PipelineConfig {
+/// The stream's options under the page's threshold: for a recording, its gates learned from
+/// its sample as `track` measures them (learned once per threshold and kept across passes);
+/// for cameras and the simulator, from their first seconds.
+fn stream_options(
+    studio: &Studio,
+    fps: f64,
+    threshold: Option<u32>,
+    learned: &mut Option<(Option<u32>, StreamOptions)>,
+) -> Result<StreamOptions, PipelineError> {
+    if let Some((at, options)) = learned.as_ref()
+        && *at == threshold
+    {
+        return Ok(options.clone());
+    }
     let config = studio.config();
-    let detect = config
-        .rig
-        .iter()
-        .map(|(id, camera)| {
-            let mut detect =
-                DetectConfig::for_marker(camera, config.tool.marker_diameter_mm, 300.0, 3000.0);
-            if let Some(level) = threshold {
-                detect.threshold = Threshold::Fixed(level);
-            }
-            (id, detect)
-        })
-        .collect();
-    PipelineConfig {
+    let detect = DetectOptions {
+        fps: config.source_config.fps,
+        threshold,
+        ..DetectOptions::default()
+    };
+    let options = StreamOptions::for_source(
+        &config.source,
+        fps,
+        &config.rig,
+        &config.tool,
         detect,
-        ..PipelineConfig::default()
-    }
-}
-
-/// The sample of a tracked frame, as `teachcam live` writes it.
-fn sample(frame: &TrackedFrame) -> Sample {
-    let index = FrameIndex(frame.detections.index);
-    match &frame.track.outcome {
-        Ok(pose) => {
-            let mut s = Sample::measured(index, frame.detections.time_s, *pose);
-            s.tip_std_mm = frame.tip_std_mm;
-            s.status = frame.track.status();
-            s
-        }
-        Err(_) => Sample::gap(index, frame.detections.time_s),
-    }
+        GateOverrides::default(),
+    )?;
+    *learned = Some((threshold, options.clone()));
+    Ok(options)
 }
 
 /// Runs until the studio shuts down.
 pub fn run(studio: &Studio, opened: Opened) {
     let config = studio.config().clone();
-    let last = Arc::new(Mutex::new(None));
+    let last = Arc::new(Mutex::new(VecDeque::new()));
+    let mut learned = None;
     let mut feed = Some(Feed::new(opened.source, Arc::clone(&last)));
     let mut exposure_ms = config.source_config.v4l2.exposure_ms;
     while !studio.is_shutting_down() {
@@ -217,7 +225,7 @@ pub fn run(studio: &Studio, opened: Opened) {
             }
         }
         let Some(current) = feed.as_mut() else { return };
-        match track(studio, current, &last, &controls) {
+        match track(studio, current, &last, &controls, &mut learned) {
             Ended::Restart => {}
             Ended::Error(message) => {
                 studio.live().error = Some(message);
@@ -264,19 +272,23 @@ enum Ended {
 fn track(
     studio: &Studio,
     feed: &mut Feed,
-    last: &Arc<Mutex<Option<FrameSet>>>,
+    last: &Arc<Mutex<VecDeque<FrameSet>>>,
     controls: &super::state::Controls,
+    learned: &mut Option<(Option<u32>, StreamOptions)>,
 ) -> Ended {
     let config = studio.config();
-    let pipeline = pipeline_config(studio, controls.threshold);
     let fps = feed.fps();
+    let options = match stream_options(studio, fps, controls.threshold, learned) {
+        Ok(options) => options,
+        Err(e) => return Ended::Error(e.to_string()),
+    };
     // Each rig camera's place among the source's cameras (the rig's order is the stream's).
     let positions: Vec<Option<usize>> = config
         .rig
         .iter()
         .map(|(_, c)| feed.cameras.iter().position(|s| s.name == c.name))
         .collect();
-    let mut stream = match TrackStream::new(feed, &config.rig, &config.tool, &pipeline) {
+    let mut stream = match TrackStream::new(feed, &config.rig, &config.tool, options) {
         Ok(stream) => stream,
         Err(e) => return Ended::Error(e.to_string()),
     };
@@ -289,11 +301,20 @@ fn track(
             Ok(frame) => frame,
             Err(e) => return Ended::Error(e.to_string()),
         };
-        let set = last
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
-            .take()
-            .filter(|s| s.index == frame.detections.index);
+        let set = {
+            let mut kept = last
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            while kept
+                .front()
+                .is_some_and(|s| s.index < frame.detections.index)
+            {
+                kept.pop_front();
+            }
+            kept.front()
+                .filter(|s| s.index == frame.detections.index)
+                .cloned()
+        };
         let images: Vec<Option<&CameraFrame>> = match &set {
             Some(set) => positions
                 .iter()
@@ -312,10 +333,7 @@ fn track(
             live.tick(now);
             live.dropped = stats.dropped_sets;
             live.error = None;
-            live.status = Some((
-                frame.track.status().name().to_string(),
-                frame.track.reason(),
-            ));
+            live.status = Some((frame.status().name().to_string(), frame.reason()));
             live.cameras = config
                 .rig
                 .iter()
@@ -327,7 +345,7 @@ fn track(
                     blobs: detections.as_ref().map_or(0, |d| d.blobs.len()),
                 })
                 .collect();
-            live.take.push(sample(&frame), fps);
+            live.take.push(frame.sample, fps);
             if let (Some(recorder), Some(set)) = (live.recorder.as_mut(), set.as_ref()) {
                 recorder.push(set, &positions);
             }

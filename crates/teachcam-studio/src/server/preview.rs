@@ -174,7 +174,7 @@ pub fn live_message(
     let header = json!({
         "frame": frame.detections.index,
         "time_s": round(frame.detections.time_s, 6),
-        "status": frame.track.status().name(),
+        "status": frame.status().name(),
         "reason": frame.track.reason(),
         "tool": pose_json(frame),
         "tip_std_mm": frame.tip_std_mm.map(|s| round(s, 4)),

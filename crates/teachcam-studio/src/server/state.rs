@@ -15,7 +15,7 @@ use std::time::Instant;
 use axum::body::Bytes;
 use teachcam::geometry::FrameIndex;
 use teachcam::source::sim::SimExposure;
-use teachcam::trajectory::{Sample, Trajectory};
+use teachcam::trajectory::{Sample, Status, Trajectory};
 use tokio::sync::watch;
 
 use super::recorder::Recorder;
@@ -94,6 +94,19 @@ impl Take {
         while self.samples.len() > MAX_TAKE_SAMPLES {
             self.samples.pop_front();
         }
+    }
+
+    /// How many of the take's frames have each status: the last whole pass of a recording
+    /// (the pass so far during the first), `{"ok": N, "degraded": N, "outlier": N, "lost": N}`.
+    #[must_use]
+    pub fn statuses(&self) -> serde_json::Value {
+        let count = |status: Status| self.samples.iter().filter(|s| s.status == status).count();
+        serde_json::json!({
+            "ok": count(Status::Ok),
+            "degraded": count(Status::Degraded),
+            "outlier": count(Status::Outlier),
+            "lost": count(Status::Lost),
+        })
     }
 
     /// The take as a trajectory whose frames count from 0 and whose time starts at 0.

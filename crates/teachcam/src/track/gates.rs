@@ -49,11 +49,10 @@ use crate::track::reflections::{MirrorPlane, learn_mirror};
 use crate::track::{FrameTrack, TrackConfig, Tracker};
 use crate::triangulate::TriangulateConfig;
 
+pub use crate::stats::{RobustScale, median, robust_scale};
+
 /// Fewest values a gate is measured from; with fewer it keeps its default.
 pub const MIN_SAMPLES: usize = 10;
-
-/// Normal-consistency factor of the median absolute deviation.
-const MAD_TO_SIGMA: f64 = 1.4826;
 
 /// One gate: its value and why it has it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -139,49 +138,6 @@ pub struct GateOverrides {
     pub distance_tolerance_mm: Option<f64>,
     /// `--max-registration-rms`, millimetres.
     pub max_registration_rms_mm: Option<f64>,
-}
-
-/// Median and normal-consistent MAD of a sample.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RobustScale {
-    /// The median.
-    pub median: f64,
-    /// `1.4826 · median(|x − median|)`.
-    pub sigma: f64,
-    /// Values used (finite ones).
-    pub count: usize,
-}
-
-/// The median of finite values, `None` for none.
-#[must_use]
-pub fn median(values: &[f64]) -> Option<f64> {
-    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
-/// Median and σ̂ of the finite values, `None` for none.
-#[must_use]
-pub fn robust_scale(values: &[f64]) -> Option<RobustScale> {
-    let m = median(values)?;
-    let deviations: Vec<f64> = values
-        .iter()
-        .filter(|x| x.is_finite())
-        .map(|x| (x - m).abs())
-        .collect();
-    Some(RobustScale {
-        median: m,
-        sigma: MAD_TO_SIGMA * median(&deviations)?,
-        count: deviations.len(),
-    })
 }
 
 /// Which side of the sample a gate bounds.

@@ -21,7 +21,8 @@
 //! or the end of the recording has one neighbour and is never flagged.
 
 use crate::geometry::Point3;
-use crate::track::gates::{Gate, robust_scale};
+use crate::stats::{median, robust_scale};
+use crate::track::gates::Gate;
 
 /// Tip steps needed to measure the gate; with fewer there is no guard.
 pub const MIN_STEPS: usize = 10;
@@ -43,6 +44,18 @@ pub struct TipFrame {
     pub tip_std_mm: Option<f64>,
 }
 
+impl TipFrame {
+    /// A frame the guard cannot use: no pose (or not in the stream).
+    #[must_use]
+    pub fn absent() -> Self {
+        Self {
+            tip_in_world: None,
+            confident: false,
+            tip_std_mm: None,
+        }
+    }
+}
+
 /// The guard's answer.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TemporalCheck {
@@ -57,29 +70,52 @@ pub struct TemporalCheck {
 /// Measures the step gate from `frames` and flags the ghost segments (module docs).
 #[must_use]
 pub fn temporal_outliers(frames: &[TipFrame]) -> TemporalCheck {
-    let steps: Vec<f64> = frames
-        .windows(2)
-        .filter(|w| w[0].confident && w[1].confident)
-        .filter_map(|w| Some((w[1].tip_in_world? - w[0].tip_in_world?).norm()))
-        .collect();
-    let stds: Vec<f64> = frames
-        .iter()
-        .filter(|f| f.confident)
-        .filter_map(|f| f.tip_std_mm)
-        .collect();
-    let Some(scale) = robust_scale(&steps).filter(|s| s.count >= MIN_STEPS) else {
+    let Some(gate) = step_gate(frames) else {
         return TemporalCheck {
             gate: None,
             outliers: Vec::new(),
         };
     };
+    let outliers = ghosts(frames, gate.value);
+    TemporalCheck {
+        gate: Some(gate),
+        outliers,
+    }
+}
+
+/// The tip steps between consecutive confident frames of `frames`, millimetres.
+#[must_use]
+pub fn confident_steps(frames: &[TipFrame]) -> Vec<f64> {
+    frames
+        .windows(2)
+        .filter(|w| w[0].confident && w[1].confident)
+        .filter_map(|w| Some((w[1].tip_in_world? - w[0].tip_in_world?).norm()))
+        .collect()
+}
+
+/// The step gate of `frames` (module docs); `None` with fewer than [`MIN_STEPS`] steps.
+#[must_use]
+pub fn step_gate(frames: &[TipFrame]) -> Option<Gate> {
+    let stds: Vec<f64> = frames
+        .iter()
+        .filter(|f| f.confident)
+        .filter_map(|f| f.tip_std_mm)
+        .collect();
+    step_gate_of(&confident_steps(frames), &stds)
+}
+
+/// The step gate from tip steps between confident frames and those frames' `tip_std_mm`
+/// (module docs); `None` with fewer than [`MIN_STEPS`] steps.
+#[must_use]
+pub fn step_gate_of(steps: &[f64], tip_std_mm: &[f64]) -> Option<Gate> {
+    let scale = robust_scale(steps).filter(|s| s.count >= MIN_STEPS)?;
     let raw = scale.median + K * scale.sigma;
-    let floor = NOISE_FLOOR * crate::track::gates::median(&stds).unwrap_or(0.0);
+    let floor = NOISE_FLOOR * median(tip_std_mm).unwrap_or(0.0);
     let measured = format!(
         "median {:.3} + {K}·σ̂ {:.3} of {} tip steps between ok frames = {raw:.3}",
         scale.median, scale.sigma, scale.count
     );
-    let gate = if raw < floor {
+    Some(if raw < floor {
         Gate {
             value: floor,
             reason: format!(
@@ -91,8 +127,13 @@ pub fn temporal_outliers(frames: &[TipFrame]) -> TemporalCheck {
             value: raw,
             reason: measured,
         }
-    };
-    let g = gate.value;
+    })
+}
+
+/// The frames of `frames` in ghost segments at step gate `g` millimetres per frame (module
+/// docs), each with its tip's distance from the path between the tips around its segment.
+#[must_use]
+pub fn ghosts(frames: &[TipFrame], g: f64) -> Vec<(usize, f64)> {
     let posed: Vec<(usize, Point3)> = frames
         .iter()
         .enumerate()
@@ -132,10 +173,7 @@ pub fn temporal_outliers(frames: &[TipFrame]) -> TemporalCheck {
             }
         }
     }
-    TemporalCheck {
-        gate: Some(gate),
-        outliers,
-    }
+    outliers
 }
 
 #[cfg(test)]

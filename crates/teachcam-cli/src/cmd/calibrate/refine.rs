@@ -14,9 +14,8 @@ use teachcam::track::gates::{GateOverrides, measure_gates, sample_frames};
 use teachcam::track::{FrameTrack, Tracker};
 
 use crate::Rejected;
-use crate::cmd::track::{
-    DetectFlags, GATE_SAMPLE_FRAMES, GateFlags, detect_for_tracking, views_of,
-};
+use crate::cmd::track::{DetectFlags, GateFlags};
+use teachcam::pipeline::recording::{GATE_SAMPLE_FRAMES, detect_for_tracking};
 
 /// Refine the rig's extrinsics from a recording of a tool (a bumped camera mended from the
 /// footage itself).
@@ -102,14 +101,23 @@ pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
         })?),
     };
     let overrides = args.gates.overrides();
+    let progress = crate::progress::Progress::new("detect", 0);
     let detected = detect_for_tracking(
         &args.recording,
         &rig,
         &tool,
-        &args.detect,
+        &args.detect.options(),
         overrides.min_roundness,
-    )?;
-    let (views, _, _) = views_of(&rig, &detected.recording);
+        &|| progress.tick(),
+    )
+    .map_err(|e| crate::recording::pipeline_error(e, &args.tool))?;
+    progress.finish();
+    let views: Vec<Views> = detected
+        .recording
+        .inputs(&rig)
+        .into_iter()
+        .map(|f| f.views)
+        .collect();
     let sampled: Vec<Views> = sample_frames(views.len(), GATE_SAMPLE_FRAMES)
         .into_iter()
         .map(|f| views[f].clone())

@@ -15,7 +15,7 @@ use teachcam::io::{Output, check_outputs};
 use teachcam::pipeline::CameraSetup;
 
 use crate::Rejected;
-use crate::cmd::detect::detect_folder;
+use crate::recording::detect_folder;
 
 /// The rig from a wand dance (and the world from a ground frame).
 ///

@@ -1,17 +1,12 @@
-//! `track --time-offsets`: unsynchronised cameras' offsets, estimated or given, applied to the
-//! blobs before correspondence (the library's `sync`).
+//! `track --time-offsets`: unsynchronised cameras' offsets, estimated or given; the library's
+//! batch run applies them ([`teachcam::pipeline::batch::TimeOffsetsChoice`]).
 
 use std::path::Path;
 
 use anyhow::Context;
 use teachcam::camera::Rig;
-use teachcam::correspond::Views;
-use teachcam::sync::{
-    ResampleIssue, SyncConfig, SyncEstimate, TimeOffsets, estimate_offsets, parse_time_offsets,
-    read_time_offsets_json, resample_views, time_offsets_json,
-};
-
-use crate::Rejected;
+use teachcam::pipeline::batch::{Synchronised, TimeOffsetsChoice};
+use teachcam::sync::{TimeOffsets, parse_time_offsets, read_time_offsets_json};
 
 /// What `--time-offsets` asked for.
 #[derive(Debug, Clone, PartialEq)]
@@ -34,48 +29,15 @@ impl std::str::FromStr for TimeOffsetsArg {
     }
 }
 
-/// The blobs moved to common frame times, with what happened.
-#[derive(Debug)]
-pub struct Synchronised {
-    /// Every frame's blobs at the common time.
-    pub frames: Vec<Views>,
-    /// Per frame, what could not be moved (the frame's status becomes `degraded`).
-    pub issues: Vec<Vec<ResampleIssue>>,
-    /// The offsets applied, seconds.
-    pub offsets: TimeOffsets,
-    /// The estimate, when `auto`.
-    pub estimate: Option<SyncEstimate>,
-}
-
-/// Resolves `--time-offsets` (estimating with `auto`) and moves every camera's blobs to the
-/// common frame times. A value that is neither `auto`, a list nor a readable JSON file is a
-/// usage error; a recording that cannot determine its offsets is rejected data.
+/// The library's choice for `--time-offsets`: a value that is neither `auto`, a list nor a
+/// readable JSON file is a usage error, one line naming the camera or the entry.
 ///
 /// # Errors
-/// As above, one line naming the camera or the entry.
-pub fn synchronise(
-    arg: &TimeOffsetsArg,
-    rig: &Rig,
-    frames: Vec<Views>,
-    fps: f64,
-) -> anyhow::Result<Synchronised> {
-    let config = SyncConfig::default();
-    let period_s = 1.0 / fps;
-    let (offsets, estimate) = match arg {
-        TimeOffsetsArg::Auto => {
-            let estimate = estimate_offsets(rig, &frames, period_s, &config)
-                .context("--time-offsets auto")
-                .rejected()?;
-            (estimate.time_offsets(), Some(estimate))
-        }
-        TimeOffsetsArg::Given(text) => (given_offsets(text, rig)?, None),
-    };
-    let resampled = resample_views(&frames, &offsets, period_s, &config);
-    Ok(Synchronised {
-        frames: resampled.frames,
-        issues: resampled.issues,
-        offsets,
-        estimate,
+/// As above.
+pub fn resolve(arg: &TimeOffsetsArg, rig: &Rig) -> anyhow::Result<TimeOffsetsChoice> {
+    Ok(match arg {
+        TimeOffsetsArg::Auto => TimeOffsetsChoice::Auto,
+        TimeOffsetsArg::Given(text) => TimeOffsetsChoice::Given(given_offsets(text, rig)?),
     })
 }
 
@@ -90,15 +52,6 @@ fn given_offsets(text: &str, rig: &Rig) -> anyhow::Result<TimeOffsets> {
     }
     parse_time_offsets(text, rig)
         .context("--time-offsets (expected auto, NAME=SECONDS,... or a JSON file)")
-}
-
-/// The contract's offsets JSON of the offsets applied.
-///
-/// # Errors
-/// When an offset is not finite (never written).
-pub fn offsets_json(rig: &Rig, offsets: &TimeOffsets) -> anyhow::Result<String> {
-    time_offsets_json(rig, offsets)
-        .ok_or_else(|| anyhow::anyhow!("a time offset is not finite; nothing written"))
 }
 
 /// One stderr line on the offsets: estimated ones with their σ and the epipolar residual
