@@ -4,6 +4,10 @@
 //! Each parser returns the parsed value or one lowercase line saying what was expected; clap
 //! prefixes it with the flag (`error: invalid value '0' for '--fps <FPS>': ...`).
 
+use std::ops::Range;
+
+pub mod detection;
+
 /// A finite number.
 fn number(text: &str) -> Result<f64, String> {
     let value: f64 = text
@@ -118,6 +122,28 @@ pub fn pose(text: &str) -> Result<String, String> {
     teachcam::geometry::parse_pose(text)
         .map(|_| text.to_string())
         .map_err(|e| e.to_string())
+}
+
+/// `START..END` or `START..` (to the end), 0-based frames.
+pub fn parse_frames(text: &str) -> Result<Range<usize>, String> {
+    let (a, b) = text
+        .split_once("..")
+        .ok_or_else(|| format!("{text:?} is not START..END"))?;
+    let start = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("{a:?} is not a frame number"))?;
+    let end = if b.trim().is_empty() {
+        usize::MAX
+    } else {
+        b.trim()
+            .parse()
+            .map_err(|_| format!("{b:?} is not a frame number"))?
+    };
+    if end <= start {
+        return Err(format!("{text:?} is empty"));
+    }
+    Ok(start..end)
 }
 
 #[cfg(test)]

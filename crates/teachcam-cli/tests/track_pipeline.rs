@@ -171,11 +171,26 @@ fn bad_inputs_are_refused_with_the_cause() {
     );
     std::fs::write(rec.join("rig.json"), &rig).unwrap();
 
-    // A rig camera without a sub-folder.
+    // A rig camera without a sub-folder (unplugged): tracked with the cameras left, the camera
+    // named, and no frame `ok` (issue 29: a missing camera is not a refusal).
     std::fs::rename(rec.join("cam2"), rec.join("side")).unwrap();
     let out = track(rec, &[]);
-    assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("rig camera cam2 is not in the source"));
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{message}");
+    assert!(
+        message.contains("camera cam2 has no frames in the recording"),
+        "{message}"
+    );
+    let written = read_trajectory(&rec.join("raw.csv")).unwrap();
+    assert!(
+        written.samples.iter().any(|s| s.pose.is_some())
+            && written
+                .samples
+                .iter()
+                .all(|s| s.status != teachcam::trajectory::Status::Ok),
+        "{:?}",
+        written.samples.iter().map(|s| s.status).collect::<Vec<_>>()
+    );
     std::fs::rename(rec.join("side"), rec.join("cam2")).unwrap();
 
     // Frames where nothing is visible stay as explicit gaps.

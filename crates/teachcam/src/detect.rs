@@ -51,8 +51,8 @@ use crate::geometry::Pixel;
 
 pub use circle::{Circle, smallest_enclosing_circle};
 pub use repeatability::{MarkerSpread, RepeatabilityConfig, repeatability};
-pub use sphere::{SphereRange, sphere_center_pixel};
 pub use sets::{CameraDetections, DetectedSet};
+pub use sphere::{SphereRange, sphere_center_pixel};
 pub use threshold::{Background, estimate_background};
 
 /// A grey pixel type the detector reads: 8- or 16-bit.

@@ -7,10 +7,10 @@
 )]
 
 use teachcam::pipeline::{StreamOptions, TrackStream};
-use teachcam::trajectory::Status;
 use teachcam::sim::Scenario;
 use teachcam::source::FrameSource;
 use teachcam::source::sim::{SimConfig, SimSource};
+use teachcam::trajectory::Status;
 
 /// Acceptance of the live path: the simulator at 60 Hz for 10 s, every set tracked, none
 /// dropped (the queue holds 4 sets, 67 ms: a set takes about 1 ms of CPU).
@@ -27,9 +27,13 @@ fn the_simulated_live_source_runs_ten_seconds_at_60_hz_with_nothing_dropped() {
     let mut frames = 0;
     let mut posed = 0;
     {
-        let stream =
-            TrackStream::new(&mut source, &scene.rig, &scene.tool, StreamOptions::live(60.0))
-                .unwrap();
+        let stream = TrackStream::new(
+            &mut source,
+            &scene.rig,
+            &scene.tool,
+            StreamOptions::live(60.0),
+        )
+        .unwrap();
         for frame in stream {
             let frame = frame.unwrap();
             assert_eq!(frame.detections.index, frames, "a set went missing");
@@ -40,7 +44,12 @@ fn the_simulated_live_source_runs_ten_seconds_at_60_hz_with_nothing_dropped() {
             if frames < 120 {
                 assert_eq!(frame.status(), Status::Degraded, "set {frames}");
             } else {
-                assert_eq!(frame.status(), Status::Ok, "set {frames}: {}", frame.reason());
+                assert_eq!(
+                    frame.status(),
+                    Status::Ok,
+                    "set {frames}: {}",
+                    frame.reason()
+                );
             }
             frames += 1;
         }

@@ -13,10 +13,10 @@ use teachcam::io::recording::{GrayFrame, frame_file_name, read_frame, write_png}
 use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::pipeline::recording::{DetectOptions, learn_from_recording};
 use teachcam::pipeline::{StreamOptions, TrackStream};
-use teachcam::track::gates::GateOverrides;
 use teachcam::sim::{Scenario, build_scene, write_scene};
 use teachcam::source::folder::FolderSource;
 use teachcam::source::{FrameSource, SourceConfig, SourceSpec, open_source};
+use teachcam::track::gates::GateOverrides;
 
 /// The paper's scene cut to its first `frames` frames, written as a recording.
 fn short_recording(dir: &Path, frames: usize) -> teachcam::sim::Scene {

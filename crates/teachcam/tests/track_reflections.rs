@@ -9,11 +9,11 @@
 use rayon::prelude::*;
 use teachcam::correspond::Views;
 use teachcam::detect::{Blob, DetectConfig, detect};
+use teachcam::metrology::frame::tip_std_mm;
 use teachcam::sim::{Scenario, Scene, build_scene, real_world, render_frame};
 use teachcam::track::gates::{Gate, GateOverrides, ROUNDNESS_FLOOR, measure_gates, roundness_gate};
 use teachcam::track::merged::{BlobShape, Shapes};
 use teachcam::track::temporal::{TipFrame, temporal_outliers};
-use teachcam::metrology::frame::tip_std_mm;
 use teachcam::track::{FrameTrack, Tracker, fill_from_neighbours, guard_in_time};
 use teachcam::trajectory::Status;
 

@@ -20,10 +20,10 @@ use teachcam::io::{rig::read_rig, tool::read_tool};
 use teachcam::metrology::first_order;
 use teachcam::pipeline::recording::{DetectOptions, learn_from_recording};
 use teachcam::pipeline::{DetectStream, StreamOptions, TrackStream, TrackedFrame};
-use teachcam::track::gates::GateOverrides;
 use teachcam::sim::{Scenario, build_scene, write_scene};
 use teachcam::source::FrameSource;
 use teachcam::source::folder::FolderSource;
+use teachcam::track::gates::GateOverrides;
 
 fn ffmpeg_available() -> bool {
     let found = ["ffmpeg", "ffprobe"].iter().all(|p| {

@@ -46,7 +46,7 @@ pub struct ToolArgs {
     #[arg(long, value_delimiter = ',', required = true)]
     pub markers: Vec<String>,
     /// Frames (0-based, `START..END`, END excluded) to average over.
-    #[arg(long, default_value = "0..", value_parser = crate::cmd::import::parse_frames)]
+    #[arg(long, default_value = "0..", value_parser = crate::flags::parse_frames)]
     pub frames: std::ops::Range<usize>,
     /// A marker whose mean position becomes the tool centre point (default: the origin).
     #[arg(long)]

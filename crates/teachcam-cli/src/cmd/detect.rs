@@ -2,15 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
-use teachcam::camera::Rig;
-use teachcam::detect::{CenterMethod, DetectConfig, Threshold};
 use teachcam::io::{Output, check_outputs, write_atomically};
-use teachcam::pipeline::CameraSetup;
-use teachcam::pipeline::recording::{DetectOptions as LibraryDetectOptions, DetectedRecording};
-use teachcam::source::SourceCamera;
+use teachcam::pipeline::recording::DetectedRecording;
 
-use crate::Rejected;
+use crate::flags::detection::{DetectorFlags, configs};
 use crate::recording::detect_folder;
 
 /// Find the marker blobs in every frame of a recording and write their sub-pixel centres.
@@ -40,127 +35,7 @@ pub struct Args {
     pub output: PathBuf,
     /// Detector options.
     #[command(flatten)]
-    pub options: DetectOptions,
-}
-
-/// Detector options shared by the commands that detect blobs.
-#[derive(Debug, clap::Args)]
-pub struct DetectOptions {
-    /// Centre estimate: `refined` (background-subtracted centroid over a disc holding the
-    /// blurred edge, most accurate), `centroid` (over the blob's own pixels) or
-    /// `smallest-circle` (the paper's: centre of the smallest enclosing circle).
-    #[arg(long, default_value = "refined")]
-    pub method: CenterMethod,
-    /// Fixed threshold in the images' units: a pixel is foreground when strictly above it.
-    /// Default: background median + max(8 noise std, full scale / 32), per frame.
-    #[arg(long)]
-    pub threshold: Option<u32>,
-    /// Smallest blob kept, pixels (default 4, or from the rig and marker size).
-    #[arg(long)]
-    pub min_area: Option<usize>,
-    /// Largest blob kept, pixels (default 40000, or from the rig and marker size).
-    #[arg(long)]
-    pub max_area: Option<usize>,
-    /// Smallest roundness kept, 0..1 (1 = disc; two touching equal discs have 0.5).
-    #[arg(long, default_value_t = 0.75, value_parser = crate::flags::unit_interval)]
-    pub min_roundness: f64,
-    /// Camera rig (rig.json): size limits and sphere-centre correction per camera.
-    #[arg(long)]
-    pub rig: Option<PathBuf>,
-    /// Tool model (tool.json), for its marker diameter.
-    #[arg(long, conflicts_with = "marker_diameter")]
-    pub tool: Option<PathBuf>,
-    /// Marker sphere diameter, millimetres.
-    #[arg(long, value_parser = crate::flags::positive)]
-    pub marker_diameter: Option<f64>,
-    /// Nearest distance from a camera to a marker, millimetres (with --rig).
-    #[arg(long, default_value_t = LibraryDetectOptions::default().near_mm, value_parser = crate::flags::positive)]
-    pub near: f64,
-    /// Farthest distance from a camera to a marker, millimetres (with --rig).
-    #[arg(long, default_value_t = LibraryDetectOptions::default().far_mm, value_parser = crate::flags::positive)]
-    pub far: f64,
-    /// Shot noise of the camera: noise variance per image unit of signal (1 / gain in
-    /// electrons per unit). Only the predicted centre noise (`center_std_px`) uses it.
-    #[arg(long, default_value_t = 0.0, value_parser = crate::flags::non_negative)]
-    pub shot_noise: f64,
-}
-
-/// Every camera of the recording, in the recording's order, with its detector configuration.
-///
-/// # Errors
-/// Rejected data when a file cannot be read or the rig lacks a camera of the recording; a
-/// usage error when a number is out of range.
-pub fn configs(args: &DetectOptions, cameras: &[SourceCamera]) -> anyhow::Result<Vec<CameraSetup>> {
-    if !(args.min_roundness.is_finite() && (0.0..=1.0).contains(&args.min_roundness)) {
-        return Err(anyhow::anyhow!(
-            "--min-roundness must be within 0..1, got {}",
-            args.min_roundness
-        ));
-    }
-    if !(args.near.is_finite() && args.far.is_finite() && 0.0 < args.near && args.near < args.far) {
-        return Err(anyhow::anyhow!(
-            "--near and --far must satisfy 0 < near < far, got {} and {}",
-            args.near,
-            args.far
-        ));
-    }
-    if !(args.shot_noise.is_finite() && args.shot_noise >= 0.0) {
-        return Err(anyhow::anyhow!(
-            "--shot-noise must be a non-negative number, got {}",
-            args.shot_noise
-        ));
-    }
-    let diameter_mm = match (&args.tool, args.marker_diameter) {
-        (Some(tool), _) => Some(crate::load::tool(tool)?.marker_diameter_mm),
-        (None, Some(d)) if d.is_finite() && d > 0.0 => Some(d),
-        (None, Some(d)) => {
-            return Err(anyhow::anyhow!(
-                "--marker-diameter must be a positive number of millimetres, got {d}"
-            ));
-        }
-        (None, None) => None,
-    };
-    let rig: Option<Rig> = args.rig.as_deref().map(crate::load::rig).transpose()?;
-    cameras
-        .iter()
-        .map(|frames| {
-            let mut cfg = match (&rig, diameter_mm) {
-                (Some(rig), Some(d)) => {
-                    let camera = rig
-                        .cameras
-                        .iter()
-                        .find(|c| c.name == frames.name)
-                        .with_context(|| {
-                            format!(
-                                "recording camera {} is not in the rig {}",
-                                frames.name,
-                                args.rig.as_deref().unwrap_or(Path::new("")).display()
-                            )
-                        })
-                        .rejected()?;
-                    DetectConfig::for_marker(camera, d, args.near, args.far)
-                }
-                _ => DetectConfig::default(),
-            };
-            cfg.method = args.method;
-            cfg.min_roundness = args.min_roundness;
-            cfg.shot_noise_per_level = args.shot_noise;
-            if let Some(t) = args.threshold {
-                cfg.threshold = Threshold::Fixed(t);
-            }
-            if let Some(a) = args.min_area {
-                cfg.min_area_px = a;
-            }
-            if let Some(a) = args.max_area {
-                cfg.max_area_px = a;
-            }
-            Ok(CameraSetup {
-                name: frames.name.clone(),
-                detect: cfg,
-                size: None,
-            })
-        })
-        .collect()
+    pub options: DetectorFlags,
 }
 
 /// The CSV text of the detections.

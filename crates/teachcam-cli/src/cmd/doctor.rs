@@ -136,7 +136,13 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
             blob_noise_px: Vec::new(),
         })
         .collect();
-    let gates = gates_from_sample(&rig, &tool, &frames, min_roundness, &GateOverrides::default());
+    let gates = gates_from_sample(
+        &rig,
+        &tool,
+        &frames,
+        min_roundness,
+        &GateOverrides::default(),
+    );
     let tracker = Tracker::new(&rig, &tool, gates.track_config());
     let tracks = tracker.track_recording(&views, &shapes);
     let config = DoctorConfig {

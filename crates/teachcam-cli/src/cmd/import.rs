@@ -46,7 +46,7 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     pub markers: Vec<String>,
     /// Frames (0-based, `START..END`, END excluded) over which to build the tool from data.
-    #[arg(long, default_value = "0..", value_parser = parse_frames)]
+    #[arg(long, default_value = "0..", value_parser = crate::flags::parse_frames)]
     pub static_frames: Range<usize>,
     /// A marker label whose mean position becomes the tool centre point of a tool built from
     /// data (default: the first marker).
@@ -83,28 +83,6 @@ pub enum Format {
     Qualisys,
     /// The identified 3-D markers of `teachcam track --markers-out` (needs `--fps`).
     Markers,
-}
-
-/// `START..END` or `START..` (to the end), 0-based frames.
-pub fn parse_frames(text: &str) -> Result<Range<usize>, String> {
-    let (a, b) = text
-        .split_once("..")
-        .ok_or_else(|| format!("{text:?} is not START..END"))?;
-    let start = a
-        .trim()
-        .parse()
-        .map_err(|_| format!("{a:?} is not a frame number"))?;
-    let end = if b.trim().is_empty() {
-        usize::MAX
-    } else {
-        b.trim()
-            .parse()
-            .map_err(|_| format!("{b:?} is not a frame number"))?
-    };
-    if end <= start {
-        return Err(format!("{text:?} is empty"));
-    }
-    Ok(start..end)
 }
 
 /// Reads marker data in `format`; `fps` is the rate of a `markers` file.

@@ -104,7 +104,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let config = args.camera.source_config(&args.source, args.seconds, None);
     let (rig, tool) = args.model.load(&args.source, &config.sim)?;
     let mut source = open_source(&args.source, &config).rejected()?;
-    let tool_path = args.model.tool.as_deref().unwrap_or(Path::new("the tool file"));
+    let tool_path = args
+        .model
+        .tool
+        .as_deref()
+        .unwrap_or(Path::new("the tool file"));
     let detect = DetectOptions {
         fps: args.camera.fps,
         ..DetectOptions::default()

@@ -3,10 +3,10 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use crate::cmd::detect::{DetectOptions, configs};
+use crate::flags::detection::{DetectorFlags, configs};
 use crate::recording::detect_folder;
-use teachcam::pipeline::recording::DetectedRecording;
 use teachcam::detect::{MarkerSpread, RepeatabilityConfig, repeatability};
+use teachcam::pipeline::recording::DetectedRecording;
 
 /// Repeatability of blob centres of static markers (the paper's Fig. 10).
 ///
@@ -39,7 +39,7 @@ pub struct Args {
     pub min_frames: usize,
     /// Detector options.
     #[command(flatten)]
-    pub options: DetectOptions,
+    pub options: DetectorFlags,
 }
 
 /// Run the command.
@@ -122,7 +122,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
 /// A scatter plot of `std_px` (measured, filled; predicted, hollow) against `area_px`, one
 /// colour per camera, as a standalone SVG.
-fn svg_plot(per_camera: &[(String, Vec<MarkerSpread>)], options: &DetectOptions) -> String {
+fn svg_plot(per_camera: &[(String, Vec<MarkerSpread>)], options: &DetectorFlags) -> String {
     const W: f64 = 640.0;
     const H: f64 = 420.0;
     const LEFT: f64 = 70.0;

@@ -3,18 +3,16 @@
 
 use std::path::{Path, PathBuf};
 
-use teachcam::detect::CenterMethod;
 use teachcam::io::detections::read_detections;
 use teachcam::io::recording::DEFAULT_FPS;
 use teachcam::io::{Output, check_outputs};
 use teachcam::pipeline::PipelineError;
 use teachcam::pipeline::batch::{TrackFiles, TrackInput, TrackOptions, TrackRun, track};
-use teachcam::pipeline::recording::DetectOptions;
 use teachcam::source::folder::{RecordingClock, recording_clock};
-use teachcam::track::gates::GateOverrides;
 use teachcam::trajectory::{Status, Trajectory};
 
 use crate::Rejected;
+use crate::flags::detection::{DetectFlags, GateFlags};
 use crate::progress::Progress;
 
 /// Below this fraction of frames posed, `track` points to `teachcam doctor`.
@@ -95,40 +93,6 @@ pub struct Args {
     /// The blobs are tracked as detected (`--min-roundness` leaves out the less round ones).
     #[arg(long, conflicts_with_all = ["method", "threshold", "near", "far"])]
     pub detections: Option<PathBuf>,
-}
-
-/// The gates a user can fix; each one left out is measured from the recording.
-#[derive(Debug, Clone, Copy, Default, clap::Args)]
-pub struct GateFlags {
-    /// Smallest blob roundness kept, 0..1 (1 = disc; two touching equal discs score 0.5).
-    #[arg(long, value_parser = crate::flags::unit_interval)]
-    pub min_roundness: Option<f64>,
-    /// Largest distance of a blob from an epipolar line, pixels (every camera pair).
-    #[arg(long, value_parser = crate::flags::positive)]
-    pub epipolar_tolerance: Option<f64>,
-    /// Largest RMS triangulation residual of a marker, pixels.
-    #[arg(long, value_parser = crate::flags::positive)]
-    pub max_residual_px: Option<f64>,
-    /// Tolerance on marker distances for identification, millimetres.
-    #[arg(long, value_parser = crate::flags::positive)]
-    pub distance_tolerance: Option<f64>,
-    /// Largest registration RMS of an `ok` pose, millimetres (up to 3 times it: `outlier`).
-    #[arg(long, value_parser = crate::flags::positive)]
-    pub max_registration_rms: Option<f64>,
-}
-
-impl GateFlags {
-    /// The gates these flags fix (clap has checked their values).
-    #[must_use]
-    pub fn overrides(&self) -> GateOverrides {
-        GateOverrides {
-            min_roundness: self.min_roundness,
-            epipolar_tolerance_px: self.epipolar_tolerance,
-            max_residual_px: self.max_residual_px,
-            distance_tolerance_mm: self.distance_tolerance,
-            max_registration_rms_mm: self.max_registration_rms,
-        }
-    }
 }
 
 /// Run the command.
@@ -248,12 +212,13 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(TrackRun, Vec<PathBuf>)> {
     };
     let progress = Progress::new("detect", 0);
     let run = track(input, &rig, &tool, &options, &|| progress.tick()).map_err(|e| {
-        let e = match (e, &args.detections) {
-            (PipelineError::Detections(message), Some(path)) => PipelineError::Detections(
-                format!("{}: {message} ({})", path.display(), args.rig.display()),
-            ),
-            (e, _) => e,
-        };
+        let e =
+            match (e, &args.detections) {
+                (PipelineError::Detections(message), Some(path)) => PipelineError::Detections(
+                    format!("{}: {message} ({})", path.display(), args.rig.display()),
+                ),
+                (e, _) => e,
+            };
         crate::recording::pipeline_error(e, &args.tool)
     })?;
     progress.finish();
@@ -287,50 +252,4 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(TrackRun, Vec<PathBuf>)> {
         },
     )?;
     Ok((run, written))
-}
-
-/// The detector's options `track` and `calibrate refine` share.
-#[derive(Debug, Clone, Copy, clap::Args)]
-pub struct DetectFlags {
-    /// Frames per second (overrides recording.json; default 30).
-    #[arg(long, value_parser = crate::flags::fps)]
-    pub fps: Option<f64>,
-    /// Centre estimate: refined (default), centroid or smallest-circle (the paper's).
-    #[arg(long, default_value = "refined")]
-    pub method: CenterMethod,
-    /// Fixed detection threshold in the images' units (default: automatic per frame).
-    #[arg(long)]
-    pub threshold: Option<u32>,
-    /// Nearest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = DetectOptions::default().near_mm, value_parser = crate::flags::positive)]
-    pub near: f64,
-    /// Farthest distance from a camera to a marker, millimetres.
-    #[arg(long, default_value_t = DetectOptions::default().far_mm, value_parser = crate::flags::positive)]
-    pub far: f64,
-}
-
-impl From<&DetectOptions> for DetectFlags {
-    fn from(options: &DetectOptions) -> Self {
-        Self {
-            fps: options.fps,
-            method: options.method,
-            threshold: options.threshold,
-            near: options.near_mm,
-            far: options.far_mm,
-        }
-    }
-}
-
-impl DetectFlags {
-    /// The library's detector options these flags give.
-    #[must_use]
-    pub fn options(&self) -> DetectOptions {
-        DetectOptions {
-            fps: self.fps,
-            method: self.method,
-            threshold: self.threshold,
-            near_mm: self.near,
-            far_mm: self.far,
-        }
-    }
 }

@@ -337,12 +337,14 @@ fn track(
             live.cameras = config
                 .rig
                 .iter()
-                .zip(&frame.detections.cameras)
-                .map(|((_, camera), detections)| CameraCounts {
+                .map(|(_, camera)| CameraCounts {
                     name: camera.name.clone(),
                     width: camera.image_size.width,
                     height: camera.image_size.height,
-                    blobs: detections.as_ref().map_or(0, |d| d.blobs.len()),
+                    blobs: frame
+                        .detections
+                        .of(&camera.name)
+                        .map_or(0, |d| d.blobs.len()),
                 })
                 .collect();
             live.take.push(frame.sample, fps);

@@ -128,9 +128,8 @@ pub fn live_message(
 ) -> Bytes {
     let mut pixels: Vec<u8> = Vec::new();
     let mut cameras = Vec::new();
-    for (((id, camera), detections), image) in
-        config.rig.iter().zip(&frame.detections.cameras).zip(images)
-    {
+    for ((id, camera), image) in config.rig.iter().zip(images) {
+        let detections = frame.detections.of(&camera.name);
         let shrunk = image
             .and_then(|f| f.decode(&camera.name, None).ok())
             .map(|i| preview(&i, PREVIEW_WIDTH));

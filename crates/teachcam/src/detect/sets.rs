@@ -34,6 +34,15 @@ pub struct DetectedSet<B = Vec<Blob>> {
     pub cameras: Vec<Option<CameraDetections<B>>>,
 }
 
+impl<B> DetectedSet<B> {
+    /// The blobs of the camera named `camera`, `None` where it has no frame in this set (or
+    /// is not in the stream at all: a rig camera missing from the source).
+    #[must_use]
+    pub fn of(&self, camera: &str) -> Option<&CameraDetections<B>> {
+        self.cameras.iter().flatten().find(|c| c.camera == camera)
+    }
+}
+
 impl DetectedSet<RoundnessChoices> {
     /// The set as [`detect`] with roundness floor `min_roundness` finds it; `None` below the
     /// floor the choices were detected with.
@@ -60,4 +69,3 @@ impl DetectedSet<RoundnessChoices> {
         })
     }
 }
-

@@ -9,9 +9,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::{FileError, read_text};
+use crate::detect::CameraDetections;
 use crate::detect::{Blob, PixelBox};
 use crate::geometry::Pixel;
-use crate::detect::CameraDetections;
 
 /// The contract's columns, in this order, at the start of the header.
 pub const DETECTIONS_COLUMNS: [&str; 5] = ["camera", "frame", "x_px", "y_px", "radius_px"];

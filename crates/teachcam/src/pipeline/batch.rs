@@ -175,29 +175,28 @@ pub fn track(
             },
         )?;
     }
-    let (recording, min_roundness, missing): (DetectedRecording, Gate, Vec<String>) =
-        match input {
-            TrackInput::Recording(root) => {
-                let detected = detect_for_tracking(
-                    root,
-                    rig,
-                    tool,
-                    &options.detect,
-                    overrides.min_roundness,
-                    progress,
-                )?;
-                (
-                    detected.recording,
-                    detected.min_roundness,
-                    detected.missing_cameras,
-                )
-            }
-            TrackInput::Detections { detections, clock } => {
-                let (recording, gate) =
-                    recording_from_detections(detections, clock, rig, overrides.min_roundness)?;
-                (recording, gate, Vec::new())
-            }
-        };
+    let (recording, min_roundness, missing): (DetectedRecording, Gate, Vec<String>) = match input {
+        TrackInput::Recording(root) => {
+            let detected = detect_for_tracking(
+                root,
+                rig,
+                tool,
+                &options.detect,
+                overrides.min_roundness,
+                progress,
+            )?;
+            (
+                detected.recording,
+                detected.min_roundness,
+                detected.missing_cameras,
+            )
+        }
+        TrackInput::Detections { detections, clock } => {
+            let (recording, gate) =
+                recording_from_detections(detections, clock, rig, overrides.min_roundness)?;
+            (recording, gate, Vec::new())
+        }
+    };
     let detected = recording.inputs(rig);
     let mut frames = detected.clone();
     let synchronised = match &options.time_offsets {

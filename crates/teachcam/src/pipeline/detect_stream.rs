@@ -279,4 +279,3 @@ impl<B: FrameDetections> Iterator for DetectStream<'_, B> {
         self.ready.pop_front().map(Ok)
     }
 }
-

@@ -13,9 +13,7 @@ use std::path::Path;
 use super::rules::{CameraOut, FrameInput, cameras_out, frame_inputs};
 use super::{CameraSetup, DetectStream, FrameDetections, PipelineError};
 use crate::camera::Rig;
-use crate::detect::{
-    Blob, CenterMethod, DetectConfig, DetectedSet, RoundnessChoices, Threshold,
-};
+use crate::detect::{Blob, CenterMethod, DetectConfig, DetectedSet, RoundnessChoices, Threshold};
 use crate::geometry::CameraId;
 use crate::io::detections::Detections;
 use crate::metrology::frame::Typical;
@@ -178,7 +176,10 @@ impl DetectedRecording {
     #[must_use]
     pub fn inputs(&self, rig: &Rig) -> Vec<FrameInput> {
         let ids: Vec<Option<CameraId>> = self.cameras.iter().map(|c| rig.id_of(c)).collect();
-        self.sets.iter().map(|set| frame_inputs(&ids, set)).collect()
+        self.sets
+            .iter()
+            .map(|set| frame_inputs(&ids, set))
+            .collect()
     }
 }
 
@@ -284,7 +285,8 @@ pub fn detect_for_tracking(
                 // A gate below the floor (none is measured so): detect again with it.
                 None => {
                     let mut source = FolderSource::open(root, options.fps)?;
-                    let (setups, _) = options.rig_setups(rig, tool, source.cameras(), gate.value)?;
+                    let (setups, _) =
+                        options.rig_setups(rig, tool, source.cameras(), gate.value)?;
                     detect_recording(&mut source, setups, progress)?
                 }
             };

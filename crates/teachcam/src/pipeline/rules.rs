@@ -17,8 +17,8 @@ use crate::correspond::Views;
 use crate::detect::DetectedSet;
 use crate::geometry::CameraId;
 use crate::track::merged::{BlobShape, Shapes};
-pub use crate::track::{OutReason, sample_of};
 use crate::track::{Flag, FrameTrack};
+pub use crate::track::{OutReason, sample_of};
 
 /// A detected set as tracking takes it: the blob centres and shapes per rig camera, and every
 /// blob's predicted centre noise per axis (pixels).

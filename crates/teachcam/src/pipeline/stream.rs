@@ -33,9 +33,7 @@ use crate::source::{FrameSource, SourceSpec, SourceStats};
 use crate::tool::Tool;
 use crate::track::gates::{GateOverrides, Gates, ROUNDNESS_FLOOR, roundness_gate};
 use crate::track::temporal::{MIN_STEPS, TipFrame, ghosts, step_gate_of};
-use crate::track::{
-    Flag, FrameTrack, Lost, NEIGHBOUR_FRAMES, Tracker, neighbour_pose, tip_frame,
-};
+use crate::track::{Flag, FrameTrack, Lost, NEIGHBOUR_FRAMES, Tracker, neighbour_pose, tip_frame};
 use crate::trajectory::{Sample, Status};
 
 /// How a stream comes by its gates.
@@ -252,7 +250,9 @@ impl<'a> TrackStream<'a> {
             Learning::Given(learned) => learned.gates.min_roundness.value,
             Learning::FirstFrames(_) => options.gates.min_roundness.unwrap_or(ROUNDNESS_FLOOR),
         };
-        let (setups, missing) = options.detect.rig_setups(rig, tool, source.cameras(), floor)?;
+        let (setups, missing) = options
+            .detect
+            .rig_setups(rig, tool, source.cameras(), floor)?;
         let ids = setups.iter().map(|s| rig.id_of(&s.name)).collect();
         let detect = DetectStream::detecting(source, setups)?;
         let mut stream = Self {
@@ -400,10 +400,12 @@ impl<'a> TrackStream<'a> {
                 seen: self.learning.len(),
                 needed,
             });
-            track.flags.extend(self.missing.iter().map(|camera| Flag::CameraOut {
-                camera: camera.clone(),
-                why: super::rules::OutReason::NoFrames,
-            }));
+            track
+                .flags
+                .extend(self.missing.iter().map(|camera| Flag::CameraOut {
+                    camera: camera.clone(),
+                    why: super::rules::OutReason::NoFrames,
+                }));
         }
         let tip_std_mm =
             Typical::default().tip_std_mm(self.rig, self.tool, &track, &input.blob_noise_px);
@@ -545,14 +547,16 @@ impl<'a> TrackStream<'a> {
                 // The guard's context: the frames behind (as they were before the guard), this
                 // one, the window ahead; frame positions are recording indices apart.
                 let mut frames: Vec<TipFrame> = Vec::new();
-                let first = self
-                    .history
-                    .front()
-                    .map_or(index, |h| h.detections.index);
+                let first = self.history.front().map_or(index, |h| h.detections.index);
                 let context = self
                     .history
                     .iter()
-                    .map(|h| (h.detections.index, h.guard_tip.unwrap_or(TipFrame::absent())))
+                    .map(|h| {
+                        (
+                            h.detections.index,
+                            h.guard_tip.unwrap_or(TipFrame::absent()),
+                        )
+                    })
                     .chain(std::iter::once((index, tip)))
                     .chain(
                         self.window
@@ -594,7 +598,9 @@ impl<'a> TrackStream<'a> {
         };
         self.ready.push_back(frame);
         self.history.push_back(held);
-        let keep = (4 * self.options.lag_frames).max(2 * NEIGHBOUR_FRAMES).max(30);
+        let keep = (4 * self.options.lag_frames)
+            .max(2 * NEIGHBOUR_FRAMES)
+            .max(30);
         while self.history.len() > keep {
             self.history.pop_front();
         }

@@ -30,8 +30,8 @@ use std::collections::BTreeMap;
 
 use crate::camera::Rig;
 use crate::geometry::{MarkerId, Point3, Vec3};
-use crate::track::FrameTrack;
 use crate::stats::median;
+use crate::track::FrameTrack;
 
 /// Fewest frames whose rival labellings must show one plane before it is taken as a mirror:
 /// one or two could be a chance arrangement of two tools; a static plate shows itself in

@@ -14,7 +14,7 @@ use teachcam::track::gates::{GateOverrides, measure_gates, sample_frames};
 use teachcam::track::{FrameTrack, Tracker};
 
 use crate::Rejected;
-use crate::cmd::track::{DetectFlags, GateFlags};
+use crate::flags::detection::{DetectFlags, GateFlags};
 use teachcam::pipeline::recording::{GATE_SAMPLE_FRAMES, detect_for_tracking};
 
 /// Refine the rig's extrinsics from a recording of a tool (a bumped camera mended from the
