@@ -80,8 +80,25 @@ pub struct Recording {
 }
 
 #[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct RecordingFile {
     fps: f64,
+}
+
+/// `recording.json`'s rate: an object with `fps` and nothing else (an array such as `[1000]`
+/// would otherwise read as a struct's fields in order; an unknown key such as `"units"` is a
+/// claim teachcam would ignore).
+fn read_recording_file(file: &Path) -> Result<f64, FileError> {
+    let value: serde_json::Value = parse_json(file, &read_text(file)?)?;
+    if !value.is_object() {
+        return Err(FileError::invalid(
+            file,
+            format!("expected an object such as {{\"fps\": 30}}, got {value}"),
+        ));
+    }
+    serde_json::from_value::<RecordingFile>(value)
+        .map(|r| r.fps)
+        .map_err(|e| FileError::invalid(file, format!("{e} (the file holds {{\"fps\": N}})")))
 }
 
 impl Recording {
@@ -257,7 +274,7 @@ pub fn list_recording(
         None => {
             let file = root.join("recording.json");
             if file.exists() {
-                Some(parse_json::<RecordingFile>(&file, &read_text(&file)?)?.fps)
+                Some(read_recording_file(&file)?)
             } else {
                 None
             }
@@ -281,6 +298,9 @@ pub fn list_recording(
                     format!("no times for camera {}", camera.name),
                 ));
             };
+            if let Some(fps) = fps {
+                check_times_against_rate(&timestamps_path, &camera.name, camera_times, fps)?;
+            }
             if let CameraMedia::Images(frames) = &camera.media
                 && frames.len() != camera_times.len()
             {
@@ -383,15 +403,57 @@ pub fn read_timestamps(path: &Path) -> Result<BTreeMap<String, Vec<f64>>, FileEr
                 camera.len()
             )));
         }
-        if camera.last().is_some_and(|&last| time_s < last) {
+        if let Some(&last) = camera.last()
+            && time_s <= last
+        {
             return Err(bad(format!(
-                "camera {}: frame {frame} at {time_s} s is earlier than the frame before",
-                fields[0]
+                "camera {}: frame {frame} at {time_s} s is not later than frame {} at {last} s (times must increase{})",
+                fields[0],
+                frame - 1,
+                if time_s == last && last.abs() > 1e9 {
+                    "; these times are beyond what double precision tells apart: give seconds from the recording's start"
+                } else {
+                    ""
+                }
             )));
         }
         camera.push(time_s);
     }
     Ok(times)
+}
+
+/// How far a camera's median frame step may stray from the recording's rate: a camera that
+/// drops frames or runs at a slightly other rate stays within it; times written in
+/// milliseconds (1000×) or frame numbers do not.
+const RATE_FACTOR: f64 = 2.0;
+
+/// A camera's frame times agree with the recording's rate `fps`: their median step is within
+/// [`RATE_FACTOR`] of `1 / fps`.
+fn check_times_against_rate(
+    path: &Path,
+    camera: &str,
+    times: &[f64],
+    fps: f64,
+) -> Result<(), FileError> {
+    let steps: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+    let Some(step) = crate::stats::median(&steps) else {
+        return Ok(());
+    };
+    let expected = 1.0 / fps;
+    if step > RATE_FACTOR * expected || step < expected / RATE_FACTOR {
+        return Err(FileError::invalid(
+            path,
+            format!(
+                "camera {camera}: frames {step} s apart (median), but the recording's rate of {fps} fps puts them {expected:.6} s apart{}",
+                if (step / expected / 1000.0).ln().abs() < 0.1 {
+                    ": these times look like milliseconds; time_s is in seconds"
+                } else {
+                    ""
+                }
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The text of `timestamps.csv` for each camera's frame times, seconds (microsecond digits).

@@ -46,6 +46,22 @@ pub enum FramesError {
     /// The points are (nearly) on one line: the rotation about it is unknown.
     #[error("the points are collinear: touch at least 3 points not on one line")]
     Collinear,
+    /// The best rigid fit leaves residuals no calibration target allows.
+    #[error(
+        "the points do not fit one rigid motion: rms residual {rms_mm:.2} mm, beyond {limit_mm:.2} mm (1 % of the points' spread, at least 1 mm); worst point {worst} at {worst_mm:.2} mm{hint}"
+    )]
+    FitTooPoor {
+        /// RMS residual of the rigid fit, millimetres.
+        rms_mm: f64,
+        /// The largest RMS accepted, millimetres.
+        limit_mm: f64,
+        /// 0-based index of the point farthest off.
+        worst: usize,
+        /// Its residual, millimetres.
+        worst_mm: f64,
+        /// What the points look like instead ("; ..."), or empty.
+        hint: String,
+    },
     /// Too few poses for a pivot calibration.
     #[error("{count} poses; a pivot calibration needs at least 3")]
     TooFewPoses {
@@ -108,11 +124,87 @@ pub fn align_frames(
         .zip(points_in_base)
         .map(|(a, b)| (base_from_wobj * a - b).norm())
         .collect();
+    let limit_mm = fit_limit_mm(points_in_wobj);
+    if registration.rms_mm > limit_mm {
+        let (worst, worst_mm) =
+            residuals_mm
+                .iter()
+                .copied()
+                .enumerate()
+                .fold(
+                    (0, 0.0),
+                    |best, (i, r)| if r > best.1 { (i, r) } else { best },
+                );
+        return Err(FramesError::FitTooPoor {
+            rms_mm: registration.rms_mm,
+            limit_mm,
+            worst,
+            worst_mm,
+            hint: poor_fit_hint(points_in_wobj, points_in_base, limit_mm),
+        });
+    }
     Ok(Alignment {
         base_from_wobj,
         residuals_mm,
         rms_mm: registration.rms_mm,
     })
+}
+
+/// The largest RMS residual an alignment may leave: 1 % of the points' spread (RMS distance
+/// from their centroid), at least 1 mm. A TCP touching points on a calibration target is good
+/// to a few tenths of a millimetre and the cameras to a tenth; a unit mix-up or a mirrored
+/// frame leaves residuals of the order of the spread itself.
+fn fit_limit_mm(points: &[Point3]) -> f64 {
+    let n = points.len().max(1) as f64;
+    let centroid = points
+        .iter()
+        .fold(nalgebra::Vector3::zeros(), |s, p| s + p.coords)
+        / n;
+    let spread = (points
+        .iter()
+        .map(|p| (p.coords - centroid).norm_squared())
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    (0.01 * spread).max(1.0)
+}
+
+/// What two point sets that fit no rigid motion look like: a unit mix-up (they fit with a
+/// scale) or a mirror image (they fit once one axis is flipped); empty when neither.
+fn poor_fit_hint(points_in_wobj: &[Point3], points_in_base: &[Point3], limit_mm: f64) -> String {
+    if let Ok(scaled) = register(points_in_wobj, points_in_base, Scale::Free)
+        && scaled.rms_mm <= limit_mm
+        && scaled.scale.is_finite()
+        && scaled.scale > 0.0
+    {
+        let s = scaled.scale;
+        let near = |target: f64| (s / target).ln().abs() < 0.05;
+        let units = if near(1e-3) {
+            "the robot's points look like metres and the cameras' millimetres"
+        } else if near(1e3) {
+            "the cameras' points look like metres and the robot's millimetres"
+        } else if near(1.0 / 25.4) {
+            "the robot's points look like inches and the cameras' millimetres"
+        } else if near(25.4) {
+            "the cameras' points look like inches and the robot's millimetres"
+        } else {
+            "the two sets differ in scale"
+        };
+        return format!("; they fit with a scale of {s:.6}: {units} (give both in millimetres)");
+    }
+    let flipped: Vec<Point3> = points_in_wobj
+        .iter()
+        .map(|p| Point3::new(p.x, p.y, -p.z))
+        .collect();
+    if let Ok(mirrored) = register(&flipped, points_in_base, Scale::Fixed)
+        && mirrored.rms_mm <= limit_mm
+    {
+        return format!(
+            "; they fit as a mirror image (rms {:.2} mm with one axis flipped): one of the frames is left-handed, or two columns are swapped",
+            mirrored.rms_mm
+        );
+    }
+    String::new()
 }
 
 /// Options of [`pivot_calibration`].
