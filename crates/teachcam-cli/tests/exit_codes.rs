@@ -167,6 +167,18 @@ const TABLE: &[(&str, i32, &[&str])] = &[
         &["--frames", "at least 1"],
     ),
     ("smooth @/raw.csv --cutoff 0 -o @/s.csv", 2, &["--cutoff"]),
+    // A negative number reaches the flag's range message (issue 32), not clap's "unexpected
+    // argument '-3'".
+    (
+        "smooth @/raw.csv --cutoff -3 -o @/s.csv",
+        2,
+        &["--cutoff", "-3 must be above 0"],
+    ),
+    (
+        "track @/rec --rig @/rig.json --tool @/tool.json -o @/o.csv --fps -30",
+        2,
+        &["--fps", "above 0"],
+    ),
     ("smooth @/raw.csv --order 0 -o @/s.csv", 2, &["--order"]),
     (
         "uncertainty --rig @/rig.json --tool @/tool.json --pose 0,0,190,1,0,0,0 --trials 100000000",

@@ -310,6 +310,32 @@ fn tracking_detect_output_gives_the_trajectory_of_the_images() {
     );
     let read = |name: &str| std::fs::read_to_string(file(name)).unwrap();
     assert_eq!(read("quiet.csv"), read("detections.csv"));
+    // The gates: one line by default (issue 32), the table with a reason per gate behind
+    // --verbose; the gates file is written either way.
+    let gates_lines = |stderr: &[u8]| {
+        String::from_utf8_lossy(stderr)
+            .lines()
+            .filter(|l| l.contains("registration"))
+            .count()
+    };
+    let images_stderr = String::from_utf8_lossy(&from_images.stderr);
+    assert_eq!(gates_lines(&from_images.stderr), 1, "{images_stderr}");
+    assert!(images_stderr.contains("--verbose"), "{images_stderr}");
+    assert!(
+        !images_stderr.contains("triangulation residual"),
+        "{images_stderr}"
+    );
+    let verbose = track_detections(&[], &file("verbose.csv"), &["--verbose"]);
+    let verbose_stderr = String::from_utf8_lossy(&verbose.stderr);
+    assert!(verbose.status.success(), "{verbose_stderr}");
+    for row in [
+        "triangulation residual",
+        "registration residual",
+        "tip step per frame",
+    ] {
+        assert!(verbose_stderr.contains(row), "{verbose_stderr} lacks {row}");
+    }
+    assert!(std::path::Path::new(&file("images-diag.gates.json")).is_file());
     assert_eq!(read("images.csv").lines().count(), 31);
     assert_eq!(read("images.csv"), read("detections.csv"));
     assert_eq!(read("images-diag.csv"), read("detections-diag.csv"));

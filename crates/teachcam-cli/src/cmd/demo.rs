@@ -205,8 +205,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         files: [
             &recording,
             &raw_path,
+            &out.join("markers.csv"),
+            &out.join("diagnostics.csv"),
+            &out.join("diagnostics.gates.json"),
             &smoothed_path,
             &rapid_path,
+            &out.join("run.json"),
             &out.join("report.html"),
         ]
         .iter()

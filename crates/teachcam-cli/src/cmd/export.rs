@@ -149,7 +149,7 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         && !args.force
     {
         anyhow::bail!(
-            "{} programs drive {} robots, and the {} is a {} robot (--force writes it anyway)",
+            "{} programs drive {} robots, and the {} is made by {} (--force writes it anyway)",
             args.dialect.label(),
             maker.label(),
             robot.name,

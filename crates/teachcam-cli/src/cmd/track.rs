@@ -70,6 +70,10 @@ pub struct Args {
     /// the gates beside it (`<stem>.gates.json`).
     #[arg(long)]
     pub diagnostics: Option<PathBuf>,
+    /// Print the gates measured from the recording as a table with the reason of each (one line
+    /// otherwise; the gates file is written either way).
+    #[arg(long)]
+    pub verbose: bool,
     #[command(flatten)]
     pub detect: DetectFlags,
     /// Gates fixed by hand (default: measured from the recording).
@@ -228,19 +232,27 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(TrackRun, Vec<PathBuf>)> {
     if let Some(synchronised) = &run.synchronised {
         crate::announce::say(&time_offsets::summary(&rig, synchronised));
     }
-    if !crate::announce::quiet() {
+    if !args.verbose {
+        let written_to = gates_json.as_deref().map_or(String::new(), |path| {
+            format!(", written to {}", path.display())
+        });
+        crate::announce::say(&format!(
+            "{} (the table with reasons: --verbose{written_to})",
+            run.gates.summary()
+        ));
+    } else if !crate::announce::quiet() {
         crate::announce::say(run.gates.to_string().trim_end());
+        crate::announce::say(&match &run.step_gate {
+            Some(gate) => format!(
+                "  {:<24} {:>8.3} mm  {}",
+                "tip step per frame", gate.value, gate.reason
+            ),
+            None => format!(
+                "  {:<24} none: too few steps between ok frames",
+                "tip step per frame"
+            ),
+        });
     }
-    crate::announce::say(&match &run.step_gate {
-        Some(gate) => format!(
-            "  {:<24} {:>8.3} mm  {}",
-            "tip step per frame", gate.value, gate.reason
-        ),
-        None => format!(
-            "  {:<24} none: too few steps between ok frames",
-            "tip step per frame"
-        ),
-    });
     let written = run.write(
         &rig,
         &TrackFiles {

@@ -257,7 +257,7 @@ pub async fn export(
         let (maker, extension) = dialect.maker_and_extension();
         if checked.robot.maker != maker {
             return Err(ApiError::unprocessable(format!(
-                "{extension} programs drive {} robots, and the {} is a {} robot",
+                "{extension} programs drive {} robots, and the {} is made by {}",
                 maker.label(),
                 checked.robot.name,
                 checked.robot.maker.label()

@@ -648,6 +648,28 @@ impl Gates {
     }
 }
 
+impl Gates {
+    /// The gates in one line, for a run that does not print the table ([`Gates`]'s `Display`):
+    /// the values without the reasons.
+    pub fn summary(&self) -> String {
+        format!(
+            "gates from {} of {} sampled frames: roundness {:.2}, epipolar {:.2} px, residual {:.2} px, distances {:.2} mm, registration {:.2} mm; {}",
+            self.confident_frames,
+            self.sampled_frames,
+            self.min_roundness.value,
+            self.epipolar_tolerance_px.value,
+            self.max_residual_px.value,
+            self.distance_tolerance_mm.value,
+            self.max_registration_rms_mm.value,
+            if self.mirror.is_some() {
+                "a mirror"
+            } else {
+                "no mirror"
+            },
+        )
+    }
+}
+
 impl fmt::Display for Gates {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
