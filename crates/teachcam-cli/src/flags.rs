@@ -31,6 +31,23 @@ pub fn positive(text: &str) -> Result<f64, String> {
     }
 }
 
+/// `--time-scale`: "auto", or a factor of 1 or more (a program is never faster than the
+/// demonstration).
+pub fn time_scale(text: &str) -> Result<teachcam::robot::check::TimeScale, String> {
+    if text.eq_ignore_ascii_case("auto") {
+        return Ok(teachcam::robot::check::TimeScale::Auto);
+    }
+    let value = number(text)
+        .map_err(|e| format!("{e} (or auto: the smallest factor within the joint limits)"))?;
+    if value >= 1.0 {
+        Ok(teachcam::robot::check::TimeScale::Fixed(value))
+    } else {
+        Err(format!(
+            "{value} must be 1 or more (1 keeps the demonstration's timing), or auto"
+        ))
+    }
+}
+
 /// A finite number, zero or above.
 pub fn non_negative(text: &str) -> Result<f64, String> {
     let value = number(text)?;

@@ -121,8 +121,32 @@ fn too_far_is_reported_frame_by_frame_with_exit_status_1() {
     assert_eq!(pasted.status.code(), Some(0), "{}", text(&pasted.stdout));
 }
 
+/// The position and the tool's z axis of every robtarget of a RAPID module, in order: the
+/// axis from the quaternion `[q1..q4] = [w, x, y, z]` by the rotation matrix's third column.
+fn robtargets(module: &str) -> Vec<([f64; 3], [f64; 3])> {
+    module
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("CONST robtarget "))
+        .map(|l| {
+            let numbers: Vec<f64> = l
+                .split(['[', ']', ',', ';', '='])
+                .filter_map(|t| t.trim().parse().ok())
+                .collect();
+            let [x, y, z, w, qx, qy, qz] = numbers[..7] else {
+                panic!("robtarget {l}")
+            };
+            let axis = [
+                2.0 * (qx * qz + w * qy),
+                2.0 * (qy * qz - w * qx),
+                1.0 - 2.0 * (qx * qx + qy * qy),
+            ];
+            ([x, y, z], axis)
+        })
+        .collect()
+}
+
 #[test]
-fn too_fast_program_is_not_written_unless_forced() {
+fn a_demonstration_faster_than_the_arm_is_slowed_and_approached() {
     let dir = tempfile::tempdir().unwrap();
     let trajectory = dir.path().join("fast.csv");
     write_stroke(&trajectory, 1.0 / 10.0);
@@ -138,20 +162,72 @@ fn too_fast_program_is_not_written_unless_forced() {
         "-o",
         program.to_str().unwrap(),
     ];
-    let out = teachcam(&args);
+    // At the demonstration's own timing: refused, naming the axis and the factor that fits.
+    let mut recorded = args.to_vec();
+    recorded.extend(["--time-scale", "1"]);
+    let out = teachcam(&recorded);
     assert_eq!(out.status.code(), Some(1));
-    assert!(text(&out.stdout).contains("too fast"));
-    assert!(text(&out.stdout).contains("suggestion: slow the trajectory down"));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("too fast"), "{stdout}");
+    let factor: f64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("suggestion: slow the trajectory down by a factor of "))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|f| f.parse().ok())
+        .unwrap_or_else(|| panic!("no factor in {stdout}"));
+    assert!(factor > 1.0);
     assert!(!program.exists());
-    let mut forced = args.to_vec();
+    // Default: slowed by that factor, said on stderr and in the module's header.
+    let out = teachcam(&args);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let said = format!("time scale {factor:.2}: axis");
+    assert!(text(&out.stderr).contains(&said), "{}", text(&out.stderr));
+    let module = std::fs::read_to_string(&program).unwrap();
+    assert!(module.contains(&format!("! {said}")), "{module}");
+    // The factor is the smallest that passes: the per-frame check passes at it, not 0.02 less.
+    let check = |scale: f64| {
+        teachcam(&[
+            "check",
+            trajectory.to_str().unwrap(),
+            "--wobj",
+            WOBJ,
+            "--tcp",
+            TCP,
+            "--time-scale",
+            &format!("{scale}"),
+        ])
+        .status
+        .code()
+    };
+    assert_eq!(check(factor), Some(0));
+    assert_eq!(check(factor - 0.02), Some(1));
+    // Approach and retract: 50 mm back along the tool's z from the first and last points.
+    let targets = robtargets(&module);
+    let n = targets.len();
+    for (lifted, paint) in [(targets[0], targets[1]), (targets[n - 1], targets[n - 2])] {
+        for i in 0..3 {
+            let expected = paint.0[i] - 50.0 * paint.1[i];
+            assert!(
+                (lifted.0[i] - expected).abs() < 0.01,
+                "{lifted:?} {paint:?}"
+            );
+        }
+    }
+    let moves: Vec<&str> = module
+        .lines()
+        .map(str::trim)
+        .filter(|l| l.starts_with("Move"))
+        .collect();
+    assert!(moves[0].starts_with("MoveJ p0001,"), "{moves:?}");
+    assert!(moves[1].starts_with("MoveL p0002,") && moves[1].contains(", fine,"));
+    assert!(moves[moves.len() - 2].contains(", fine,"), "{moves:?}");
+    // --force still writes the too-fast demonstration at its own timing.
+    let mut forced = recorded.clone();
     forced.push("--force");
     let out = teachcam(&forced);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(
-        std::fs::read_to_string(&program)
-            .unwrap()
-            .starts_with("MODULE fast")
-    );
+    let module = std::fs::read_to_string(&program).unwrap();
+    assert!(module.contains("time scale 1.00 (given)"), "{module}");
 }
 
 #[test]
@@ -321,6 +397,11 @@ fn acceleration_limit_is_judged_when_given() {
     let base = ["check", path, "--wobj", WOBJ, "--tcp", TCP];
     let mut strict = base.to_vec();
     strict.extend(["--max-acceleration-deg-s2", "1"]);
+    // Slowed (accelerations fall with the square of the time scale), it passes.
+    let out = teachcam(&strict);
+    assert!(out.status.success(), "{}", text(&out.stdout));
+    assert!(text(&out.stdout).contains("limits the demonstration"));
+    strict.extend(["--time-scale", "1"]);
     let out = teachcam(&strict);
     assert_eq!(out.status.code(), Some(1));
     assert!(text(&out.stdout).contains("accelerates too hard"));

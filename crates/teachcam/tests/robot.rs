@@ -362,7 +362,11 @@ fn too_fast_stroke_fails_and_the_suggested_slowdown_passes() {
     let cell = cell();
     // The stroke played 8 times faster.
     let fast = targets(&stroke(4.0, 1.0 / 8.0));
-    let report = check_path(&model, &cell, &fast, &CheckConfig::default());
+    let recorded = CheckConfig {
+        time_scale: teachcam::robot::check::TimeScale::Fixed(1.0),
+        ..CheckConfig::default()
+    };
+    let report = check_path(&model, &cell, &fast, &recorded);
     assert!(!report.passes());
     assert!(report.frames.iter().any(|f| {
         f.issues
@@ -381,8 +385,16 @@ fn too_fast_stroke_fails_and_the_suggested_slowdown_passes() {
             ..*t
         })
         .collect();
-    let again = check_path(&model, &cell, &slowed, &CheckConfig::default());
+    let again = check_path(&model, &cell, &slowed, &recorded);
     assert!(again.passes(), "peak {}", again.peak_speed_ratio);
+    // The default (auto) slows by that factor itself.
+    let auto = check_path(&model, &cell, &fast, &CheckConfig::default());
+    assert!(auto.passes());
+    assert!(
+        (auto.timing.factor - factor).abs() < 1e-9,
+        "{:?}",
+        auto.timing
+    );
     assert!(again.peak_speed_ratio > 0.98, "{}", again.peak_speed_ratio);
 }
 

@@ -71,6 +71,12 @@ pub struct CellArgs {
     /// Fraction of each axis's maximum speed the path may use (0 < f <= 1).
     #[arg(long, default_value_t = 1.0, value_parser = crate::flags::fraction)]
     pub speed_fraction: f64,
+    /// How the demonstration's timing is played: auto slows the whole path by the smallest
+    /// factor that keeps every joint within its limits (printed and written in the program);
+    /// 1 keeps the recorded timing and fails naming the axis, frame and the factor that would
+    /// fit; F slows it F times.
+    #[arg(long, default_value = "auto", value_parser = crate::flags::time_scale)]
+    pub time_scale: teachcam::robot::check::TimeScale,
     /// Largest joint acceleration allowed on every axis, deg/s^2 (the makers publish none; without
     /// this flag accelerations are reported, not judged).
     #[arg(long)]
@@ -137,6 +143,7 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
     let config = CheckConfig {
         speed_fraction: args.speed_fraction,
         max_acceleration: args.max_acceleration_deg_s2.map(|a| [a.to_radians(); 6]),
+        time_scale: args.time_scale,
         ..CheckConfig::default()
     };
     Ok(Resolved {
@@ -185,6 +192,7 @@ pub fn summary(report: &CheckReport, gaps: usize, robot: &str) -> String {
         report.near_singular_count(),
         100.0 * report.peak_speed_ratio
     );
+    let _ = writeln!(out, "{}", report.timing.describe(robot));
     let speeds: Vec<String> = report
         .peak_joint_speed
         .iter()

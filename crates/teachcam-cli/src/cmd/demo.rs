@@ -169,6 +169,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         tool: None,
         speed_fraction: 1.0,
         max_acceleration_deg_s2: None,
+        time_scale: teachcam::robot::check::TimeScale::Auto,
         keep_outliers: false,
     };
     let rapid_path = out.join("stroke.mod");
@@ -179,6 +180,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         output: rapid_path.clone(),
         tolerance_mm: 0.5,
         tolerance_deg: 0.5,
+        approach: 50.0,
         name: Some("teachcam_demo".into()),
         tool_mass: None,
         tool_cog: None,

@@ -67,6 +67,11 @@ pub struct Args {
     /// Orientation tolerance for dropping targets, degrees.
     #[arg(long, default_value_t = 0.5, value_parser = crate::flags::positive)]
     pub tolerance_deg: f64,
+    /// Approach and retract, millimetres back along the tool's axis (away from the work) from
+    /// the first and last points: a joint move to the approach pose, a linear move onto the
+    /// paint at 50 mm/s, the same off it at the end; 0 for none.
+    #[arg(long, default_value_t = 50.0, value_parser = crate::flags::non_negative)]
+    pub approach: f64,
     /// Program name (default: the output file's name; KRL: must be the file's name).
     #[arg(long)]
     pub name: Option<String>,
@@ -181,6 +186,12 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         orientation_tolerance: args.tolerance_deg.to_radians(),
     };
     let mut program = build_program(&name, &resolved.cell, &report, &tolerance);
+    if args.dialect != Dialect::Csv {
+        program
+            .add_approach(args.approach, resolved.config.speed_fraction)
+            .map_err(|e| anyhow::anyhow!("--approach {}: {e}", args.approach))
+            .rejected()?;
+    }
     if args.tool_mass.is_some() || args.tool_cog.is_some() {
         let assumed = ToolLoad::assumed(&resolved.cell);
         program.load = Some(ToolLoad {
@@ -270,5 +281,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         format!("{moves} moves from {} frames", report.frames.len())
     };
     crate::announce::wrote(&files, &what);
+    if args.dialect != Dialect::Csv {
+        crate::announce::say(&report.timing.describe(&report.robot.name));
+    }
     Ok(())
 }

@@ -36,6 +36,69 @@ pub struct CheckConfig {
     /// target reachable, as a fraction of the arm's reach. Default 1.0: beyond a whole reach
     /// the stroke would be on the arm's other side.
     pub max_work_object_move_reach: f64,
+    /// How the demonstration's timing is played. Default [`TimeScale::Auto`].
+    pub time_scale: TimeScale,
+}
+
+/// How a path's recorded timing is played on the robot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TimeScale {
+    /// Slow the whole path uniformly by the smallest factor (≥ 1, rounded up to a hundredth)
+    /// that keeps every joint within its speed limit times [`CheckConfig::speed_fraction`],
+    /// and its acceleration limit when given. A path within the limits keeps its timing.
+    Auto,
+    /// Play the path this many times slower (1: the demonstration's own timing).
+    Fixed(f64),
+}
+
+/// The time scale a check applied.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// Every recorded duration was multiplied by this (≥ 1 under [`TimeScale::Auto`]).
+    pub factor: f64,
+    /// The 0-based axis that sets the factor (the one closest to its limit at the recorded
+    /// timing), `None` when no two consecutive frames have joints.
+    pub limiting_axis: Option<usize>,
+    /// True when the factor was chosen by [`TimeScale::Auto`].
+    pub automatic: bool,
+}
+
+impl Timing {
+    /// One line for a program's header and `check`'s summary, e.g. "time scale 1.62: axis 1
+    /// of the irb120 limits the demonstration".
+    #[must_use]
+    pub fn describe(&self, robot: &str) -> String {
+        let how = if self.automatic { "" } else { " (given)" };
+        match self.limiting_axis {
+            Some(axis) if self.factor > 1.0 && self.automatic => format!(
+                "time scale {:.2}: axis {} of the {robot} limits the demonstration",
+                self.factor,
+                axis + 1
+            ),
+            _ if self.factor == 1.0 => {
+                format!("time scale 1.00{how}: the demonstration's own timing")
+            }
+            _ => format!(
+                "time scale {:.2}{how}: the demonstration played {:.2} times slower",
+                self.factor, self.factor
+            ),
+        }
+    }
+}
+
+/// The targets with every time since the first multiplied by `factor`.
+#[must_use]
+pub fn scale_time(targets: &[TcpTarget], factor: f64) -> Vec<TcpTarget> {
+    let Some(start) = targets.first().map(|t| t.time_s) else {
+        return Vec::new();
+    };
+    targets
+        .iter()
+        .map(|t| TcpTarget {
+            time_s: start + (t.time_s - start) * factor,
+            ..*t
+        })
+        .collect()
 }
 
 impl Default for CheckConfig {
@@ -45,6 +108,7 @@ impl Default for CheckConfig {
             speed_fraction: 1.0,
             max_acceleration: None,
             max_work_object_move_reach: 1.0,
+            time_scale: TimeScale::Auto,
         }
     }
 }
@@ -237,6 +301,8 @@ pub struct CheckReport {
     pub peak_joint_acceleration: [f64; 6],
     /// What would make it run.
     pub suggestions: Vec<Suggestion>,
+    /// The time scale applied: the frames' times are the scaled ones.
+    pub timing: Timing,
 }
 
 impl CheckReport {
@@ -282,13 +348,86 @@ impl CheckReport {
 /// path in one configuration exists.
 const CONFIGURATION_CHANGE_COST: f64 = 1e3;
 
-/// Checks a path of targets on a robot in a cell.
+/// Checks a path of targets on a robot in a cell, played at [`CheckConfig::time_scale`]: the
+/// report's frames carry the scaled times, so speeds and programs follow.
+///
+/// Under [`TimeScale::Auto`] the path is checked at its recorded timing, then slowed by the
+/// peak ratio of speed to limit (of acceleration, its square root: accelerations scale with
+/// the square of the factor), and checked again; the joint solutions chosen can change with
+/// the timing, so this repeats (at most four times) until the peaks are within the limits.
 #[must_use]
 pub fn check_path(
     robot: &Robot,
     cell: &Cell,
     targets: &[TcpTarget],
     config: &CheckConfig,
+) -> CheckReport {
+    let recorded = check_at_timing(robot, cell, targets, config, 1.0);
+    let limiting_axis = limiting_axis(robot, &recorded, config);
+    let (mut report, factor) = match config.time_scale {
+        TimeScale::Fixed(1.0) => (recorded, 1.0),
+        TimeScale::Fixed(factor) => (
+            check_at_timing(robot, cell, &scale_time(targets, factor), config, factor),
+            factor,
+        ),
+        TimeScale::Auto => {
+            let mut report = recorded;
+            let mut factor = 1.0;
+            for _ in 0..4 {
+                let needed = needed_factor(&report);
+                if needed <= 1.0 {
+                    break;
+                }
+                factor = round_up(factor * needed);
+                report = check_at_timing(robot, cell, &scale_time(targets, factor), config, factor);
+            }
+            (report, factor)
+        }
+    };
+    report.timing = Timing {
+        factor,
+        limiting_axis,
+        automatic: config.time_scale == TimeScale::Auto,
+    };
+    report
+}
+
+/// The factor by which the checked timing must be slowed for speeds and accelerations to be
+/// within their limits (≤ 1 when they are).
+fn needed_factor(report: &CheckReport) -> f64 {
+    let acceleration = report.peak_acceleration_ratio.unwrap_or(0.0).sqrt();
+    report.peak_speed_ratio.max(acceleration)
+}
+
+/// Rounds a factor up to a hundredth, so that the factor said is one that passes.
+fn round_up(factor: f64) -> f64 {
+    (factor * 100.0 - 1e-9).ceil() / 100.0
+}
+
+/// The axis closest to its speed limit at the recorded timing.
+fn limiting_axis(robot: &Robot, report: &CheckReport, config: &CheckConfig) -> Option<usize> {
+    let measured = report
+        .frames
+        .windows(2)
+        .any(|pair| pair[0].joints.is_some() && pair[1].joints.is_some());
+    if !measured {
+        return None;
+    }
+    (0..6).max_by(|&a, &b| {
+        let ratio = |axis: usize| {
+            report.peak_joint_speed[axis] / (robot.limits[axis].max_speed * config.speed_fraction)
+        };
+        ratio(a).total_cmp(&ratio(b))
+    })
+}
+
+/// [`check_path`] at one timing, `factor` times the recorded one (`targets` already scaled).
+fn check_at_timing(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+    factor: f64,
 ) -> CheckReport {
     let (chosen, beyond_turns) = choose_joints(robot, cell, targets, config);
     let mut frames = Vec::with_capacity(targets.len());
@@ -395,6 +534,11 @@ pub fn check_path(
         peak_joint_speed,
         peak_joint_acceleration,
         suggestions: Vec::new(),
+        timing: Timing {
+            factor,
+            limiting_axis: None,
+            automatic: false,
+        },
     };
     report.suggestions = suggestions(robot, cell, targets, &report, config);
     report
@@ -691,12 +835,10 @@ fn suggestions(
             out.push(Suggestion::UseWorkObject { base_from_wobj });
         }
     } else {
-        let acceleration = report.peak_acceleration_ratio.unwrap_or(0.0).sqrt();
-        let factor = report.peak_speed_ratio.max(acceleration);
+        let factor = needed_factor(report);
         if factor > 1.0 {
-            // Round up to a hundredth so that the suggested factor itself passes.
             out.push(Suggestion::SlowDown {
-                factor: (factor * 100.0).ceil() / 100.0,
+                factor: round_up(report.timing.factor * factor),
             });
         }
     }

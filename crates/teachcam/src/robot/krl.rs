@@ -180,6 +180,7 @@ pub fn krl_program(program: &Program) -> KrlProgram {
         program.tolerance.position_tolerance
     );
     let _ = writeln!(src, "  ; Tool load {how}.");
+    let _ = writeln!(src, "  ; {}.", program.timing.describe(&program.robot.name));
     let _ = writeln!(src, "  BAS(#INITMOV,0)");
     let _ = writeln!(src, "  $TOOL=TOOL_TEACHCAM\n  $BASE=BASE_TEACHCAM");
     let cog = load.cog_in_flange;
@@ -203,10 +204,9 @@ pub fn krl_program(program: &Program) -> KrlProgram {
             "  BAS(#VEL_PTP,{APPROACH_AXIS_SPEED_PERCENT})\n  PTP XP1"
         );
     }
-    let last = program.moves.len().saturating_sub(1);
     for (i, m) in program.moves.iter().enumerate().skip(1) {
         let speed = (m.tcp_speed / 1000.0).clamp(MIN_CP_SPEED_M_S, MAX_CP_SPEED_M_S);
-        let blend = if i == last { "" } else { " C_DIS" };
+        let blend = if program.stops_at(i) { "" } else { " C_DIS" };
         let _ = writeln!(
             src,
             "  $VEL.CP={}\n  LIN XP{}{blend}",

@@ -6,15 +6,31 @@
 //! that honours both takes `Δt` for the move (RAPID `speeddata` `v_tcp`, `v_ori`; KRL
 //! `$VEL.CP`; URScript `movel(..., v=...)`).
 
-use crate::geometry::Vec3;
-use crate::robot::check::CheckReport;
-use crate::robot::kinematics::{ArmConfiguration, Joints, Robot};
+use crate::geometry::{Pose, Vec3};
+use crate::robot::check::{CheckReport, Timing};
+use crate::robot::kinematics::{
+    ArmConfiguration, IkSolution, Joints, Robot, inverse_within_limits,
+};
 use crate::robot::simplify::{SimplifyConfig, simplify};
 use crate::robot::{Cell, TcpTarget};
 
-/// One linear move of a program.
+/// What a move of a program is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MoveKind {
+    /// A point of the demonstration.
+    Paint,
+    /// Above the first point, along the tool's axis: reached with a joint move, left with a
+    /// linear move onto the paint.
+    Approach,
+    /// Above the last point, along the tool's axis, reached linearly from it.
+    Retract,
+}
+
+/// One move of a program: the first a joint move, the others linear.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProgramMove {
+    /// What the move is for.
+    pub kind: MoveKind,
     /// Where the TCP goes, in the work-object frame.
     pub target: TcpTarget,
     /// The joints the check chose there, `None` for a target the arm cannot reach (a forced
@@ -71,7 +87,13 @@ pub struct Program {
     pub tolerance: SimplifyConfig,
     /// The moves in order.
     pub moves: Vec<ProgramMove>,
+    /// The time scale the demonstration is played at (the moves' speeds include it).
+    pub timing: Timing,
 }
+
+/// TCP speed of the linear moves onto the first point and off the last one, mm/s: a brush
+/// touching down and lifting off gently (slower still when an axis would be too fast).
+pub const APPROACH_SPEED_MM_S: f64 = 50.0;
 
 impl Program {
     /// The tool's load: the one given, else [`ToolLoad::assumed`]; with a note for the
@@ -85,6 +107,117 @@ impl Program {
                 "assumed (0.2 kg at half the TCP offset; set --tool-mass and --tool-cog)",
             ),
         }
+    }
+}
+
+impl Program {
+    /// True when the robot must stop exactly at move `index` rather than blend through it:
+    /// the last move, the paint point the approach lands on and the one the retract lifts
+    /// from (the brush touches down and lifts off there).
+    #[must_use]
+    pub fn stops_at(&self, index: usize) -> bool {
+        let kind = |i: usize| self.moves.get(i).map(|m| m.kind);
+        index + 1 >= self.moves.len()
+            || (index > 0 && kind(index - 1) == Some(MoveKind::Approach))
+            || kind(index + 1) == Some(MoveKind::Retract)
+    }
+
+    /// Adds an approach `distance_mm` back along the tool's axis (the TCP's z, away from the
+    /// work) from the first point, and the same retract after the last one, each with the
+    /// joints closest to its paint point's in the same configuration; the linear moves onto
+    /// and off the paint run at [`APPROACH_SPEED_MM_S`], slower when an axis would exceed
+    /// `speed_fraction` of its limit. Nothing changes for a distance of zero or an empty
+    /// program.
+    ///
+    /// # Errors
+    /// Names the pose when the arm cannot reach it within its joint ranges.
+    pub fn add_approach(&mut self, distance_mm: f64, speed_fraction: f64) -> Result<(), String> {
+        if distance_mm <= 0.0 || self.moves.is_empty() {
+            return Ok(());
+        }
+        let first = self.moves[0];
+        let last = self.moves[self.moves.len() - 1];
+        let approach = self.lifted(&first, distance_mm, MoveKind::Approach, "first")?;
+        let retract = self.lifted(&last, distance_mm, MoveKind::Retract, "last")?;
+        // The move onto the first point now comes from the approach pose.
+        let mut onto = first;
+        self.timed(&mut onto, &approach, speed_fraction);
+        let mut off = retract;
+        self.timed(&mut off, &last, speed_fraction);
+        self.moves[0] = onto;
+        self.moves.insert(0, approach);
+        self.moves.push(off);
+        Ok(())
+    }
+
+    /// The pose `distance_mm` back along the tool's axis from `at`, with its joints.
+    fn lifted(
+        &self,
+        at: &ProgramMove,
+        distance_mm: f64,
+        kind: MoveKind,
+        which: &str,
+    ) -> Result<ProgramMove, String> {
+        let lift = Pose::from_parts(
+            nalgebra::Translation3::new(0.0, 0.0, -distance_mm),
+            nalgebra::UnitQuaternion::identity(),
+        );
+        let wobj_from_tcp = at.target.wobj_from_tcp * lift;
+        let base_from_flange = self.cell.base_from_flange(&wobj_from_tcp);
+        let reference = at.joints;
+        let distance = |s: &IkSolution| {
+            reference.map_or(0.0, |r| {
+                (0..6)
+                    .map(|i| (s.joints.0[i] - r.0[i]).abs())
+                    .fold(0.0, f64::max)
+            })
+        };
+        let closest = inverse_within_limits(&self.robot, &base_from_flange)
+            .into_iter()
+            .filter(|s| at.configuration.is_none_or(|c| c == s.configuration))
+            .min_by(|a, b| distance(a).total_cmp(&distance(b)));
+        let Some(solution) = closest else {
+            let what = if kind == MoveKind::Approach {
+                "approach"
+            } else {
+                "retract"
+            };
+            return Err(format!(
+                "the {what} pose {distance_mm} mm along the tool's axis from the {which} point is out of the {}'s reach in its configuration (a shorter --approach, or 0 for none)",
+                self.robot.name
+            ));
+        };
+        Ok(ProgramMove {
+            kind,
+            target: TcpTarget {
+                wobj_from_tcp,
+                ..at.target
+            },
+            joints: Some(solution.joints),
+            configuration: Some(solution.configuration),
+            tcp_speed: 0.0,
+            orientation_speed: 0.0,
+            duration_s: 0.0,
+        })
+    }
+
+    /// Sets the speed and duration of the linear move `to` from `from`: the approach speed,
+    /// slower when an axis would exceed `speed_fraction` of its limit.
+    fn timed(&self, to: &mut ProgramMove, from: &ProgramMove, speed_fraction: f64) {
+        let a = &from.target.wobj_from_tcp;
+        let b = &to.target.wobj_from_tcp;
+        let distance = (b.translation.vector - a.translation.vector).norm();
+        let mut duration = distance / APPROACH_SPEED_MM_S;
+        if let (Some(p), Some(q)) = (from.joints, to.joints) {
+            for axis in 0..6 {
+                let limit = self.robot.limits[axis].max_speed * speed_fraction;
+                duration = duration.max((q.0[axis] - p.0[axis]).abs() / limit);
+            }
+        }
+        let duration = duration.max(1e-3);
+        to.tcp_speed = distance / duration;
+        to.orientation_speed = a.rotation.angle_to(&b.rotation) / duration;
+        to.duration_s = duration;
     }
 }
 
@@ -114,6 +247,7 @@ pub fn build_program(
             }
         };
         moves.push(ProgramMove {
+            kind: MoveKind::Paint,
             target: frame.target,
             joints: frame.joints,
             configuration: frame.configuration,
@@ -129,6 +263,7 @@ pub fn build_program(
         load: None,
         tolerance: *tolerance,
         moves,
+        timing: report.timing,
     }
 }
 

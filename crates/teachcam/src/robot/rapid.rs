@@ -60,6 +60,7 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
         program.tolerance.position_tolerance,
         program.tolerance.orientation_tolerance.to_degrees()
     );
+    let _ = writeln!(out, "  ! {}.", program.timing.describe(&program.robot.name));
     let tcp = &program.cell.flange_from_tcp;
     let (load, how) = program.tool_load();
     let cog = load.cog_in_flange;
@@ -125,11 +126,10 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
         let _ = writeln!(out, "    path_{};", r + 1);
     }
     let _ = writeln!(out, "  ENDPROC");
-    let last = program.moves.len().saturating_sub(1);
     for (r, range) in routines.iter().enumerate() {
         let _ = writeln!(out, "\n  PROC path_{}()", r + 1);
         for i in range.clone() {
-            let zone = if i == last { "fine" } else { zone };
+            let zone = if program.stops_at(i) { "fine" } else { zone };
             let m = &program.moves[i];
             // A move slower than the lowest speeds written (a dwell) keeps its recorded
             // duration through the instruction's time argument `\T`.

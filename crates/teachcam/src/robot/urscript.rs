@@ -71,6 +71,7 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
     );
     let (load, how) = program.tool_load();
     let _ = writeln!(out, "  # Payload {how}.");
+    let _ = writeln!(out, "  # {}.", program.timing.describe(&program.robot.name));
     let _ = writeln!(
         out,
         "  set_tcp({})",
@@ -93,7 +94,6 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
     let a = number(config.acceleration_m_s2, 3);
     // Blend radius: the path tolerance, and never more than the segment allows (r = 0 at the end).
     let blend = number(program.tolerance.position_tolerance / 1000.0, 6);
-    let last = program.moves.len().saturating_sub(1);
     for (i, m) in program.moves.iter().enumerate() {
         let pose = pose_literal(&m.target.wobj_from_tcp);
         if i == 0 {
@@ -116,7 +116,7 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
             continue;
         }
         let v = number((m.tcp_speed / 1000.0).max(MIN_SPEED_M_S), 6);
-        let r = if i == last {
+        let r = if program.stops_at(i) {
             "0".to_string()
         } else {
             blend.clone()

@@ -1,5 +1,6 @@
 MODULE stroke
   ! Written by teachcam: 12 moves, path tolerance 0.500 mm / 0.500 deg.
+  ! time scale 1.00: the demonstration's own timing.
   ! Tool load 0.200 kg at (0.0, 0.0, 75.0) mm in tool0, assumed (0.2 kg at half the TCP offset; set --tool-mass and --tool-cog).
   PERS tooldata tTeachcam := [TRUE,[[0.000,0.000,150.000],[1.0000000,0.0000000,0.0000000,0.0000000]],[0.200,[0.000,0.000,75.000],[1,0,0,0],0,0,0]];
   PERS wobjdata wTeachcam := [FALSE,TRUE,"",[[350.000,0.000,150.000],[1.0000000,0.0000000,0.0000000,0.0000000]],[[0,0,0],[1,0,0,0]]];
