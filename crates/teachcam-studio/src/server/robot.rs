@@ -87,9 +87,6 @@ fn pose_field(query: Option<&str>, field: &str) -> Result<Pose, ApiError> {
     parse_pose(text).map_err(|e| ApiError::bad_request(format!("{field} {text:?}: {e}")))
 }
 
-/// The approach and retract of the studio's programs, mm (`export`'s default).
-const APPROACH_MM: f64 = 50.0;
-
 fn check(studio: &Studio, query: &RobotQuery) -> Result<Checked, ApiError> {
     let name = query.robot.as_deref().unwrap_or("irb120");
     let robot = Robot::by_name(name).ok_or_else(|| {
@@ -277,15 +274,12 @@ pub async fn export(
         if let Some(problem) = krl_name_problem(PROGRAM_NAME) {
             return Err(ApiError::internal(problem));
         }
-        let mut program = build_program(
+        let program = build_program(
             PROGRAM_NAME,
             &checked.cell,
             &checked.report,
             &SimplifyConfig::default(),
         );
-        program
-            .add_approach(APPROACH_MM, CheckConfig::default().speed_fraction)
-            .map_err(ApiError::unprocessable)?;
         let text = match dialect {
             Dialect::Rapid => rapid_module(&program, &RapidConfig::default()),
             Dialect::KrlSrc => krl_program(&program).src,

@@ -129,6 +129,8 @@ impl Program {
     /// `speed_fraction` of its limit. Nothing changes for a distance of zero or an empty
     /// program.
     ///
+    /// Near the edge of the reach the distance shortens, down to 40 % of the one asked.
+    ///
     /// # Errors
     /// Names the pose when the arm cannot reach it within its joint ranges.
     pub fn add_approach(&mut self, distance_mm: f64, speed_fraction: f64) -> Result<(), String> {
@@ -137,8 +139,8 @@ impl Program {
         }
         let first = self.moves[0];
         let last = self.moves[self.moves.len() - 1];
-        let approach = self.lifted(&first, distance_mm, MoveKind::Approach, "first")?;
-        let retract = self.lifted(&last, distance_mm, MoveKind::Retract, "last")?;
+        let approach = self.lifted_within(&first, distance_mm, MoveKind::Approach, "first")?;
+        let retract = self.lifted_within(&last, distance_mm, MoveKind::Retract, "last")?;
         // The move onto the first point now comes from the approach pose.
         let mut onto = first;
         self.timed(&mut onto, &approach, speed_fraction);
@@ -148,6 +150,24 @@ impl Program {
         self.moves.insert(0, approach);
         self.moves.push(off);
         Ok(())
+    }
+
+    /// [`Program::lifted`] at `distance_mm`, else at 80, 60 or 40 % of it (an arm near the
+    /// edge of its reach); the error of the full distance when none is reachable.
+    fn lifted_within(
+        &self,
+        at: &ProgramMove,
+        distance_mm: f64,
+        kind: MoveKind,
+        which: &str,
+    ) -> Result<ProgramMove, String> {
+        match self.lifted(at, distance_mm, kind, which) {
+            Ok(lifted) => Ok(lifted),
+            Err(full) => [0.8, 0.6, 0.4]
+                .iter()
+                .find_map(|f| self.lifted(at, f * distance_mm, kind, which).ok())
+                .ok_or(full),
+        }
     }
 
     /// The pose `distance_mm` back along the tool's axis from `at`, with its joints.
