@@ -31,6 +31,9 @@ struct RobotFile {
     #[serde(default)]
     dh: Option<DhFile>,
     joints: Vec<JointFile>,
+    /// The heaviest load the maker allows on the flange, kg.
+    #[serde(default)]
+    max_payload_kg: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -192,6 +195,11 @@ pub fn parse_robot(path: &Path, text: &str) -> Result<Robot, FileError> {
     if file.name.trim().is_empty() {
         return Err(bad("name: must not be empty".into()));
     }
+    if let Some(kg) = file.max_payload_kg {
+        if !(kg.is_finite() && kg > 0.0) {
+            return Err(bad(format!("max_payload_kg {kg}: must be positive")));
+        }
+    }
     Ok(Robot {
         name: file.name,
         maker: match file.maker {
@@ -201,5 +209,6 @@ pub fn parse_robot(path: &Path, text: &str) -> Result<Robot, FileError> {
         },
         arm,
         limits,
+        max_payload_kg: file.max_payload_kg,
     })
 }

@@ -190,6 +190,8 @@ pub struct Robot {
     pub arm: Arm,
     /// Axis 1 to 6, in the maker's convention.
     pub limits: [AxisLimit; 6],
+    /// The heaviest load its maker allows on the flange, kg (`None`: not known).
+    pub max_payload_kg: Option<f64>,
 }
 
 impl Robot {

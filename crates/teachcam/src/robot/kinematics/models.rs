@@ -31,7 +31,7 @@ impl Robot {
     /// wrist centre to flange 72 mm, so `tool0` at all joints zero is `(374, 0, 630)` mm with
     /// orientation `[0.70711, 0, 0.70711, 0]`. Working ranges ("Robot motion" table): axis 1
     /// ±165°, axis 2 ±110°, axis 3 −110°..+70°, axis 4 ±160°, axis 5 ±120°, axis 6 ±400°;
-    /// maximum speeds 250, 250, 250, 320, 320, 420 °/s. ABB's joint convention is OPW's with
+    /// maximum speeds 250, 250, 250, 320, 320, 420 °/s; payload 3 kg. ABB's joint convention is OPW's with
     /// axis 3 offset by 90° (zero = forearm horizontal).
     #[must_use]
     pub fn irb120() -> Self {
@@ -57,6 +57,7 @@ impl Robot {
                 AxisLimit::from_degrees(-120.0, 120.0, 320.0),
                 AxisLimit::from_degrees(-400.0, 400.0, 420.0),
             ],
+            max_payload_kg: Some(3.0),
         }
     }
 
@@ -66,7 +67,7 @@ impl Robot {
     /// the flange 80 mm; so the FLANGE at KUKA's home `{0, −90, 90, 0, 0, 0}` is at
     /// `(470, 0, 750)` mm, parallel to `$ROBROOT`. Ranges A1 ±170°, A2 −190°..+45°,
     /// A3 −120°..+156°, A4 ±185°, A5 ±120°, A6 ±350°; speeds 360, 300, 360, 381, 388,
-    /// 615 °/s. KUKA's conventions: A1, A4 and A6 turn the other way from the right-hand rule
+    /// 615 °/s; maximum payload 6 kg (rated 3 kg). KUKA's conventions: A1, A4 and A6 turn the other way from the right-hand rule
     /// about the base z and the forearm (sign −1), A2 = −90° holds the lower arm vertical
     /// (offset), A3 = 0° lines the forearm up with the lower arm.
     #[must_use]
@@ -105,13 +106,14 @@ impl Robot {
                 AxisLimit::from_degrees(-120.0, 120.0, 388.0),
                 AxisLimit::from_degrees(-350.0, 350.0, 615.0),
             ],
+            max_payload_kg: Some(6.0),
         }
     }
 
     /// The Universal Robots UR5e, from UR's "DH parameters for calculations of kinematics
     /// and dynamics": d1 162.5, a2 −425, a3 −392.2, d4 133.3, d5 99.7, d6 99.6 mm; so the
     /// flange at all joints zero is at `(−817.2, −232.9, 62.8)` mm. UR5e technical
-    /// specifications: every joint ±360°, every joint 180 °/s.
+    /// specifications: every joint ±360°, every joint 180 °/s; payload 5 kg.
     #[must_use]
     pub fn ur5e() -> Self {
         Self {
@@ -126,13 +128,14 @@ impl Robot {
                 d6: 99.6,
             }),
             limits: [AxisLimit::from_degrees(-360.0, 360.0, 180.0); 6],
+            max_payload_kg: Some(5.0),
         }
     }
 
     /// The Universal Robots UR10e, same sources as [`Robot::ur5e`]: d1 180.7, a2 −612.7,
     /// a3 −571.55, d4 174.15, d5 119.85, d6 116.55 mm (flange at zero:
     /// `(−1184.25, −290.7, 60.85)` mm); every joint ±360°; base and shoulder 120 °/s, elbow
-    /// and wrists 180 °/s.
+    /// and wrists 180 °/s; payload 12.5 kg (UR's specification since 2023).
     #[must_use]
     pub fn ur10e() -> Self {
         let slow = AxisLimit::from_degrees(-360.0, 360.0, 120.0);
@@ -149,6 +152,7 @@ impl Robot {
                 d6: 116.55,
             }),
             limits: [slow, slow, fast, fast, fast, fast],
+            max_payload_kg: Some(12.5),
         }
     }
 }
