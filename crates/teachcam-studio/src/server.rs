@@ -43,10 +43,8 @@ pub struct StudioConfig {
     pub source: SourceSpec,
     /// How to open it (rate, simulator and camera options).
     pub source_config: SourceConfig,
-    /// The rig the frames are tracked with.
-    pub rig: Rig,
-    /// The tracked tool.
-    pub tool: Tool,
+    /// What the frames are tracked with, or why they are only looked at.
+    pub model: Model,
     /// The ground truth of a simulated recording (`truth.csv`), shown beside the review.
     pub truth: Option<Trajectory>,
     /// The folder recordings are written into (`take-001`, ...), created on the first record.
@@ -56,6 +54,44 @@ pub struct StudioConfig {
     /// Whether every API request must carry the token (given `--listen`): off loopback anyone
     /// on the network could otherwise read the cameras.
     pub token_everywhere: bool,
+}
+
+/// What the frames are tracked with.
+#[derive(Debug, Clone)]
+pub enum Model {
+    /// A rig and a tool: every set is tracked.
+    Track {
+        /// The rig the frames are tracked with.
+        rig: Rig,
+        /// The tracked tool.
+        tool: Tool,
+    },
+    /// No rig (a recording without `rig.json`): the studio shows each camera's frames, its
+    /// detections and what the detector measured of the images, and tracks nothing.
+    ViewOnly {
+        /// Why, said to the user (what is missing and how to give it).
+        reason: String,
+    },
+}
+
+impl StudioConfig {
+    /// The rig and tool, when the frames are tracked.
+    #[must_use]
+    pub fn tracking(&self) -> Option<(&Rig, &Tool)> {
+        match &self.model {
+            Model::Track { rig, tool } => Some((rig, tool)),
+            Model::ViewOnly { .. } => None,
+        }
+    }
+
+    /// Why the studio only looks at the frames, when it does.
+    #[must_use]
+    pub fn view_only(&self) -> Option<&str> {
+        match &self.model {
+            Model::Track { .. } => None,
+            Model::ViewOnly { reason } => Some(reason),
+        }
+    }
 }
 
 /// What the server tells its caller, who prints it.

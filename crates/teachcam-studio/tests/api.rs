@@ -159,8 +159,10 @@ async fn a_recording_played_counts_the_statuses_track_gives() {
     };
     let mut config = served::sim_config(dir.path(), 10);
     config.source = teachcam::source::SourceSpec::Folder(rec.clone());
-    config.rig = scene.rig.clone();
-    config.tool = scene.tool.clone();
+    config.model = teachcam_studio::server::Model::Track {
+        rig: scene.rig.clone(),
+        tool: scene.tool.clone(),
+    };
     let studio = studio_with(config);
     let mut status = Value::Null;
     for _ in 0..600 {
@@ -295,6 +297,23 @@ async fn listening_beyond_loopback_needs_the_token_on_every_request() {
     let (status, body) = json(&studio, request("GET", &uri, &any_host, Body::empty())).await;
     assert_eq!(status, StatusCode::OK, "{body}");
     assert_eq!(body["token_everywhere"], true);
+    // The session route answers without the token (200, token_ok false and how to open the
+    // page), and tells nothing else; with the token, token_ok.
+    let (status, body) = json(
+        &studio,
+        request("GET", "/api/session", &any_host, Body::empty()),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{body}");
+    assert_eq!(body["token_ok"], false, "{body}");
+    assert!(
+        body["message"].as_str().unwrap().contains("?token="),
+        "{body}"
+    );
+    assert_eq!(body.as_object().unwrap().len(), 2, "{body}");
+    let uri = format!("/api/session?token={}", studio.token());
+    let (_, body) = json(&studio, request("GET", &uri, &any_host, Body::empty())).await;
+    assert_eq!(body["token_ok"], true, "{body}");
     studio.finish();
 }
 
@@ -428,12 +447,18 @@ async fn the_suggested_work_object_passes_and_its_rapid_program_parses() {
     wait_for_frames(&studio, 40).await;
     let (status, robot) = json(
         &studio,
-        request("GET", "/api/robot?robot=irb120", &[], Body::empty()),
+        request(
+            "GET",
+            "/api/robot?robot=irb120&wobj=0%2C0%2C0%2C1%2C0%2C0%2C0",
+            &[],
+            Body::empty(),
+        ),
     )
     .await;
     assert_eq!(status, StatusCode::OK, "{robot}");
     // The simulated world is not placed for the arm: the check says so and suggests a wobj.
     assert_eq!(robot["passes"], false, "{robot}");
+    assert_eq!(robot["placement"]["from"], "given", "{robot}");
     let wobj = robot["suggestions"]
         .as_array()
         .unwrap()
@@ -469,6 +494,22 @@ async fn the_suggested_work_object_passes_and_its_rapid_program_parses() {
             );
         }
     }
+    // Without a wobj the studio starts from the same suggested placement, and says so.
+    let (status, auto) = json(
+        &studio,
+        request("GET", "/api/robot?robot=irb120", &[], Body::empty()),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{auto}");
+    assert_eq!(auto["passes"], true, "{auto}");
+    assert_eq!(auto["placement"]["from"], "suggested", "{auto}");
+    assert!(
+        auto["placement"]["note"]
+            .as_str()
+            .unwrap()
+            .contains("fails"),
+        "{auto}"
+    );
     let (status, body) = json(
         &studio,
         request("GET", "/api/export/krl?robot=irb120", &[], Body::empty()),

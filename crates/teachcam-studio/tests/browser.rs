@@ -65,6 +65,17 @@ async fn the_browser_draws_webgl_and_reports_console_errors() {
     browser.close().await;
 }
 
+/// Saves a screenshot of the page as `NAME.png` in `TEACHCAM_SCREENSHOTS` when that is set
+/// (to look at the page by hand).
+async fn screenshot(browser: &Browser, name: &str) {
+    let Some(dir) = std::env::var_os("TEACHCAM_SCREENSHOTS") else {
+        return;
+    };
+    if let Ok(png) = browser.client.screenshot().await {
+        let _ = std::fs::write(std::path::Path::new(&dir).join(format!("{name}.png")), png);
+    }
+}
+
 /// Fails the check with a message unless the condition holds (the browser is closed either
 /// way: a panic inside the checks would leave Chromium running).
 macro_rules! ensure {
@@ -156,6 +167,22 @@ async fn studio_checks(
         "the 3-D canvas shows the tool: {}",
         browser.eval(&format!("return {studio}")).await
     );
+    screenshot(browser, "live").await;
+    // The cell framed: every camera tile above the fold, the floor's scale bar written.
+    let layout = browser
+        .eval("return {bottoms: Array.from(document.querySelectorAll('#cameras canvas')).map(c => c.getBoundingClientRect().bottom), height: window.innerHeight, scale: window.teachcamStudio.scaleBar, crowded: window.teachcamStudio.labelsCrowded}")
+        .await;
+    ensure!(
+        layout["bottoms"]
+            .as_array()
+            .is_some_and(|b| b.len() == 3
+                && b.iter().all(|v| v.as_f64().unwrap_or(f64::INFINITY)
+                    <= layout["height"].as_f64().unwrap_or(0.0)))
+            && layout["scale"]
+                .as_str()
+                .is_some_and(|s| s.ends_with("mm") || s.ends_with(" m")),
+        "the camera tiles fit the window and the floor has its scale: {layout}"
+    );
     // Review: the take's figures drawn at the slider's cut-off; moving the slider re-smooths
     // and the plotted smoothed curve changes.
     browser
@@ -218,18 +245,43 @@ async fn studio_checks(
             .is_some_and(|m| m.iter().any(|l| l == "cut-off 2 Hz")),
         "the spectrum marks the new cut-off: {at_2_hz}"
     );
-    // Robot: check, take the suggested work object, check again: the arm follows the path.
+    // Robot: opening the tab checks the take at once; the simulator's world is not placed
+    // for an arm at its origin, so the page starts from the suggested work object and says so.
     browser
-        .eval("document.querySelector('nav button[data-tab=robot]').click(); document.getElementById('robot-check').click(); return true")
+        .eval("document.querySelector('nav button[data-tab=robot]').click(); return true")
         .await;
     ensure!(
         browser
             .wait_for(
-                &format!("return {studio}.robot !== null && !document.getElementById('use-suggestion').disabled"),
+                &format!("return {studio}.robot !== null && {studio}.robot.passes === true && document.getElementById('export-rapid').hasAttribute('href')"),
+                Duration::from_secs(30)
+            )
+            .await,
+        "the tab opens on a passing placement: {}",
+        browser.eval("return document.getElementById('robot-summary').textContent").await
+    );
+    let placement = browser
+        .eval("const p = document.getElementById('robot-placement'); return {from: p.dataset.from, text: p.textContent}")
+        .await;
+    ensure!(
+        placement["from"] == "suggested"
+            && placement["text"]
+                .as_str()
+                .is_some_and(|t| t.contains("default work object") && t.contains("suggested")),
+        "the page says it started from the suggested placement: {placement}"
+    );
+    // A work object given at the base fails; the suggestion button puts it right.
+    browser
+        .eval("document.getElementById('wobj').value = '0,0,0,1,0,0,0'; document.getElementById('robot-check').click(); return true")
+        .await;
+    ensure!(
+        browser
+            .wait_for(
+                &format!("return {studio}.robot.passes === false && !document.getElementById('use-suggestion').disabled"),
                 Duration::from_secs(20)
             )
             .await,
-        "the check suggests a work object: {}",
+        "the given wobj at the base fails with a suggestion: {}",
         browser.eval("return document.getElementById('robot-summary').textContent").await
     );
     browser
@@ -245,6 +297,11 @@ async fn studio_checks(
         "the suggested work object passes: {}",
         browser.eval("return document.getElementById('robot-summary').textContent").await
     );
+    browser
+        .eval("document.querySelector('nav button[data-tab=live]').click(); return true")
+        .await;
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    screenshot(browser, "live-with-arm").await;
     let frames = browser
         .eval(&format!("return {studio}.armFrames.length"))
         .await;
@@ -268,6 +325,172 @@ async fn studio_checks(
         return Err(format!("rapidchecker refuses the download: {output}"));
     }
     Ok(())
+}
+
+/// The studio opened without its token (a bookmark, a second tab) and with a stale one: the
+/// page says how to open it, opens no WebSocket and logs no console error; with the token it
+/// runs.
+#[tokio::test(flavor = "multi_thread")]
+async fn the_studio_without_its_token_says_how_to_open_it() {
+    let test = "the_studio_without_its_token_says_how_to_open_it";
+    let Some(browser) = Browser::open(test).await else {
+        return;
+    };
+    let out = tempfile::tempdir().expect("a temporary folder");
+    let served = support::studio::serve(support::studio::sim_config(out.path(), 12)).await;
+    let outcome = async {
+        let bare = format!("http://{}/", served.address);
+        for (what, url) in [
+            ("without a token", bare.clone()),
+            ("with a stale token", format!("{bare}?token=0123456789abcdef0123456789abcdef")),
+        ] {
+            browser
+                .client
+                .goto(&url)
+                .await
+                .map_err(|e| format!("the browser opens {url}: {e}"))?;
+            ensure!(
+                browser
+                    .wait_for(
+                        "return window.teachcamStudio && window.teachcamStudio.tokenRefused === true",
+                        Duration::from_secs(20)
+                    )
+                    .await,
+                "{what}: the page sees its token refused"
+            );
+            // Give a refused socket or request the time to show in the console.
+            tokio::time::sleep(Duration::from_secs(2)).await;
+            let shown = browser
+                .eval("const box = document.getElementById('no-token'); return {visible: !box.hidden && box.offsetHeight > 0, text: box.textContent, frames: window.teachcamStudio.framesDrawn, tabs: document.querySelector('nav').offsetHeight}")
+                .await;
+            ensure!(
+                shown["visible"] == true
+                    && shown["frames"] == 0
+                    && shown["tabs"] == 0
+                    && shown["text"]
+                        .as_str()
+                        .is_some_and(|t| t.contains(&format!("http://{}/?token=", served.address))),
+                "{what}: the page says how to open it and draws nothing else: {shown}"
+            );
+            let errors = browser.errors().await;
+            ensure!(errors.is_empty(), "{what}: console errors: {errors:?}");
+        }
+        browser
+            .client
+            .goto(&served.url())
+            .await
+            .map_err(|e| format!("the browser opens the studio: {e}"))?;
+        ensure!(
+            browser
+                .wait_for(
+                    "return window.teachcamStudio.tokenRefused === false && window.teachcamStudio.framesDrawn > 0 && document.getElementById('no-token').hidden",
+                    Duration::from_secs(30)
+                )
+                .await,
+            "with the token the studio runs: {}",
+            browser.eval("return window.teachcamStudio").await
+        );
+        Ok::<(), String>(())
+    }
+    .await;
+    let errors = browser.errors().await;
+    browser.close().await;
+    served.studio.finish();
+    if let Err(message) = outcome {
+        panic!("{test}: {message}");
+    }
+    assert!(errors.is_empty(), "console errors: {errors:?}");
+}
+
+/// A recording of one camera and no rig.json opens view-only: its frames, its detections and
+/// the detector's measured levels, with no console error; Review, Robot and Record are off.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_recording_without_a_rig_opens_view_only() {
+    let test = "a_recording_without_a_rig_opens_view_only";
+    let Some(browser) = Browser::open(test).await else {
+        return;
+    };
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let recording = dir.path().join("rec");
+    let mut scene = teachcam::sim::build_scene(teachcam::sim::Scenario::Paper, 1);
+    scene.truth.samples.truncate(12);
+    teachcam::sim::write_scene(&scene, &recording, 1, &|| {}).expect("the scene renders");
+    // One camera, no rig, no tool.
+    let mut cameras: Vec<_> = std::fs::read_dir(&recording)
+        .expect("the recording")
+        .filter_map(Result::ok)
+        .filter(|e| e.path().is_dir())
+        .map(|e| e.path())
+        .collect();
+    cameras.sort();
+    for extra in &cameras[1..] {
+        std::fs::remove_dir_all(extra).expect("removing a camera");
+    }
+    for file in ["rig.json", "tool.json", "truth.csv"] {
+        let _ = std::fs::remove_file(recording.join(file));
+    }
+    let kept = cameras[0]
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or_default()
+        .to_string();
+    let out = tempfile::tempdir().expect("a temporary folder");
+    let mut config = support::studio::sim_config(out.path(), 12);
+    config.source = teachcam::source::SourceSpec::Folder(recording.clone());
+    config.source_config = teachcam::source::SourceConfig::default();
+    config.model = teachcam_studio::server::Model::ViewOnly {
+        reason: "rec has no rig.json".into(),
+    };
+    let served = support::studio::serve(config).await;
+    let outcome = async {
+        browser
+            .client
+            .goto(&served.url())
+            .await
+            .map_err(|e| format!("the browser opens the studio: {e}"))?;
+        ensure!(
+            browser
+                .wait_for(
+                    "return window.teachcamStudio && window.teachcamStudio.framesDrawn > 30 && window.teachcamStudio.viewOnly !== null",
+                    Duration::from_secs(30)
+                )
+                .await,
+            "the frames are drawn view-only: {}",
+            browser.eval("return window.teachcamStudio").await
+        );
+        let shown = browser
+            .eval("const cards = Array.from(document.querySelectorAll('#cameras .camera'));
+                   return {cameras: cards.map(c => c.querySelector('canvas').dataset.camera),
+                           blobs: cards.map(c => Number(c.dataset.blobs)),
+                           captions: cards.map(c => c.querySelector('.caption').textContent),
+                           banner: document.getElementById('view-only').textContent,
+                           status: document.getElementById('pose-status').textContent,
+                           review_off: document.querySelector('nav button[data-tab=review]').disabled,
+                           record_off: document.getElementById('record').disabled}")
+            .await;
+        eprintln!("{test}: {shown}");
+        ensure!(
+            shown["cameras"] == serde_json::json!([kept])
+                && shown["blobs"] == serde_json::json!([4])
+                && shown["captions"][0]
+                    .as_str()
+                    .is_some_and(|c| c.contains("background") && c.contains("noise σ") && c.contains("threshold"))
+                && shown["banner"].as_str().is_some_and(|b| b.contains("no rig.json"))
+                && shown["status"] == "view-only"
+                && shown["review_off"] == true
+                && shown["record_off"] == true,
+            "one camera, its 4 markers' blobs and the measured levels, view-only: {shown}"
+        );
+        Ok::<(), String>(())
+    }
+    .await;
+    let errors = browser.errors().await;
+    browser.close().await;
+    served.studio.finish();
+    if let Err(message) = outcome {
+        panic!("{test}: {message}");
+    }
+    assert!(errors.is_empty(), "console errors: {errors:?}");
 }
 
 /// A small simulated run (the paper's rig, the first 36 frames of its stroke rendered; the

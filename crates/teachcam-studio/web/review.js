@@ -20,7 +20,8 @@
     reference: '#000000'
   };
   var COMPONENT_COLOURS = ['#1f77b4', '#d62728', '#ff7f0e', '#9467bd', '#8c564b', '#17becf'];
-  var HEIGHTS = { wide: 220, short: 120 };
+  // A short panel is tall enough for three ticks with values and its whole y label.
+  var HEIGHTS = { wide: 220, short: 170 };
   var STYLE_ID = 'teachcam-review-style';
   var CSS =
     '.tc-figure{margin:0 0 2.5em}' +
@@ -118,8 +119,41 @@
     return o;
   }
 
-  function yAxis(axis) {
-    var a = { label: axisLabel(axis), size: 70, labelSize: 18 };
+  // Tick values with as many decimals as their spacing needs (a residual of ±0.02 mm reads
+  // "-0.02", "0", "0.02", not "0", "0", "0").
+  function linearValues(u, splits, axisIdx, space, incr) {
+    var step = incr || (splits.length > 1 ? Math.abs(splits[1] - splits[0]) : 1);
+    var decimals = step > 0 && isFinite(step) ? Math.max(0, Math.min(12, -Math.floor(Math.log10(step) + 1e-9))) : 0;
+    return splits.map(function (v) {
+      if (v === null || v === undefined || !isFinite(v)) return '';
+      var a = Math.abs(v);
+      if (a !== 0 && (a >= 1e6 || step < 1e-6)) return v.toExponential(1);
+      var text = v.toFixed(decimals);
+      return Number(text) === 0 ? '0' : text;
+    });
+  }
+
+  // A log axis labels its powers of ten only (1e-5 ... 10), the ticks between unlabelled;
+  // Math.log10 of a tick uPlot made from 10^k is k to within rounding.
+  function logValues(u, splits) {
+    var decade = function (v) { return v > 0 && Math.abs(Math.log10(v) - Math.round(Math.log10(v))) <= 1e-6; };
+    // Less than a decade in view: every tick labelled, two significant digits.
+    if (splits.filter(decade).length < 2) {
+      return splits.map(function (v) { return v > 0 ? String(Number(v.toPrecision(2))) : ''; });
+    }
+    return splits.map(function (v) {
+      if (!(v > 0)) return '';
+      var e = Math.log10(v);
+      if (Math.abs(e - Math.round(e)) > 1e-6) return '';
+      e = Math.round(e);
+      if (e >= -3 && e <= 4) return String(Number(Math.pow(10, e).toPrecision(1)));
+      return '1e' + e;
+    });
+  }
+
+  function yAxis(axis, short) {
+    var a = { label: axisLabel(axis), size: 70, labelSize: 18, labelFont: '12px sans-serif' };
+    if (short) a.space = 22;
     if (axis.ticks && axis.ticks.length) {
       var ticks = axis.ticks;
       a.splits = function () { return ticks.map(function (t) { return t.value; }); };
@@ -129,6 +163,10 @@
           return t ? t.label : '';
         });
       };
+    } else if (axis.scale === 'log') {
+      a.values = logValues;
+    } else {
+      a.values = linearValues;
     }
     return a;
   }
@@ -150,7 +188,7 @@
       width: width,
       height: panel.shape.kind === 'short' ? HEIGHTS.short : HEIGHTS.wide,
       scales: { x: { time: false }, y: yScale(panel.y_axis) },
-      axes: [{ label: axisLabel(panel.x_axis), labelSize: 18 }, yAxis(panel.y_axis)],
+      axes: [{ label: axisLabel(panel.x_axis), labelSize: 18, values: linearValues }, yAxis(panel.y_axis, panel.shape.kind === 'short')],
       series: [{ label: axisLabel(panel.x_axis), value: function (u, v) { return format(v); } }]
         .concat(panel.series.map(seriesOptions)),
       legend: { live: true },
@@ -192,7 +230,7 @@
         x: { time: false, auto: false, range: function () { return view.x.slice(); } },
         y: { auto: false, range: function () { return view.y.slice(); } }
       },
-      axes: [{ label: axisLabel(panel.x_axis), labelSize: 18 }, yAxis(panel.y_axis)],
+      axes: [{ label: axisLabel(panel.x_axis), labelSize: 18, values: linearValues }, yAxis(panel.y_axis, false)],
       series: series,
       legend: { live: false },
       cursor: { drag: { x: true, y: true, uni: 20, setScale: false }, points: { show: false } },

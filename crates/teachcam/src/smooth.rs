@@ -782,19 +782,21 @@ fn longest_segment(
     Ok((timing, segment, series))
 }
 
-/// Amplitude spectrum (paper Fig. 7) of each component over the longest gap-free segment.
+/// Amplitude spectrum (paper Fig. 7) of each component over the longest gap-free segment,
+/// taken as `method` says (the report's: detrended, Hann-windowed).
 ///
 /// # Errors
 /// As [`check_timing`], or no pose at all.
 pub fn trajectory_spectrum(
     trajectory: &Trajectory,
     time_step_tolerance: f64,
+    method: crate::report::spectrum::SpectrumMethod,
 ) -> Result<ComponentSpectra, SmoothError> {
     let (timing, segment, series) = longest_segment(trajectory, time_step_tolerance)?;
     let spectra: Vec<spectrum::Spectrum> = series
         .columns
         .iter()
-        .map(|c| spectrum::amplitude_spectrum(c, timing.sample_rate_hz))
+        .map(|c| crate::report::spectrum::spectrum_with(c, timing.sample_rate_hz, method))
         .collect();
     let frequency_hz = spectra[0].frequency_hz.clone();
     let mut amplitude: [Vec<f64>; 6] = Default::default();

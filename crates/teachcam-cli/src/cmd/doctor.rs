@@ -33,12 +33,12 @@ use crate::recording::detect_folder;
 pub struct Args {
     /// Recording folder: one sub-folder of PNG frames or one video file per rig camera.
     pub recording: PathBuf,
-    /// Camera rig (rig.json).
+    /// Camera rig (default RECORDING/rig.json).
     #[arg(long)]
-    pub rig: PathBuf,
-    /// Tool model (tool.json).
+    pub rig: Option<PathBuf>,
+    /// Tool model (default RECORDING/tool.json).
     #[arg(long)]
-    pub tool: PathBuf,
+    pub tool: Option<PathBuf>,
     /// Print the report as JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -62,6 +62,28 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The file given, else the recording's own; without either, one line saying what is missing
+/// and what can be done without it (a usage error: exit 2).
+fn beside(
+    given: Option<&PathBuf>,
+    recording: &std::path::Path,
+    name: &str,
+    flag: &str,
+) -> anyhow::Result<PathBuf> {
+    if let Some(path) = given {
+        return Ok(path.clone());
+    }
+    let path = recording.join(name);
+    if path.is_file() {
+        return Ok(path);
+    }
+    Err(anyhow::anyhow!(
+        "{} has no {name} and no {flag} was given: doctor tracks the tool with a calibrated rig and its tool model (without them, `teachcam studio {}` shows the frames, the detections and the detector's measured levels, and `teachcam detect` writes the detections)",
+        recording.display(),
+        recording.display()
+    ))
+}
+
 /// Detects, tracks and diagnoses the recording.
 ///
 /// # Errors
@@ -75,8 +97,10 @@ pub fn doctor(args: &Args) -> anyhow::Result<Report> {
             args.far
         );
     }
-    let rig = crate::load::rig(&args.rig)?;
-    let tool = crate::load::tool(&args.tool)?;
+    let rig_path = beside(args.rig.as_ref(), &args.recording, "rig.json", "--rig")?;
+    let tool_path = beside(args.tool.as_ref(), &args.recording, "tool.json", "--tool")?;
+    let rig = crate::load::rig(&rig_path)?;
+    let tool = crate::load::tool(&tool_path)?;
     let recording = detect_folder(&args.recording, None, |_| {
         Ok(rig
             .cameras

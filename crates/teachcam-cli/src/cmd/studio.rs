@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::source::SourceSpec;
-use teachcam_studio::server::{Event, StudioConfig, StudioError, run as serve};
+use teachcam_studio::server::{Event, Model, StudioConfig, StudioError, run as serve};
 
 use crate::Rejected;
 use crate::capture::{CameraFlags, ModelFlags, parse_source, stop_requested};
@@ -20,6 +20,9 @@ use crate::capture::{CameraFlags, ModelFlags, parse_source, stop_requested};
 /// `--source` (the simulator `sim:paper` by default, or cameras `v4l2:/dev/video0,...` with
 /// `--rig` and `--tool`), tracked as `teachcam live` tracks them; a recording is played at its
 /// rate, again and again. Record / stop writes `take-001`, `take-002`, ... into `--out`.
+/// A recording without rig.json (and no `--rig`), one camera or many, opens view-only: each
+/// camera's frames, its detections and the detector's measured background, noise and
+/// threshold, nothing tracked.
 ///
 /// The server listens on 127.0.0.1 only. `--listen ADDR` serves other machines, and every
 /// request must then carry the printed token. Ctrl-C stops it (a recording in progress is
@@ -87,7 +90,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         SourceSpec::Folder(folder) => Some(folder.clone()),
         _ => None,
     };
-    let (rig, tool) = args.model.load(&source, &source_config.sim)?;
+    let model = match (&source, &args.model.rig) {
+        // A recording without a rig: look at its frames and detections.
+        (SourceSpec::Folder(folder), None) if !folder.join("rig.json").is_file() => {
+            let reason = format!(
+                "{} has no rig.json (give --rig RIG.json and --tool TOOL.json to track): its frames, detections and the detector's measured levels only",
+                folder.display()
+            );
+            crate::announce::warn(&format!("view-only: {reason}"));
+            Model::ViewOnly { reason }
+        }
+        _ => {
+            let (rig, tool) = args.model.load(&source, &source_config.sim)?;
+            Model::Track { rig, tool }
+        }
+    };
     let truth = match folder.map(|f| f.join("truth.csv")) {
         Some(path) if path.is_file() => Some(
             read_trajectory(&path)
@@ -100,8 +117,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let config = StudioConfig {
         source,
         source_config,
-        rig,
-        tool,
+        model,
         truth,
         out: args.out.clone(),
         listen,

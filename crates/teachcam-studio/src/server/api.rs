@@ -3,8 +3,9 @@
 //! | route | what |
 //! |---|---|
 //! | `GET /` | the page app ([`crate::assets`]) |
+//! | `GET /api/session` | `{token_ok, message}`: whether the page's token is this studio's (open without it; always 200) |
 //! | `GET /api/status` | `{source, frames, posed, fps, cameras, recording, statuses, ...}` (`statuses`: the take's frames per status) |
-//! | `GET /api/scene` | the rig's cameras (frusta), the tool model, the work object frame |
+//! | `GET /api/scene` | the rig's cameras (frusta), the tool model, the work object frame (none of them for a view-only studio) |
 //! | `GET /api/live` (WebSocket) | the newest tracked frame, binary ([`super::preview`]) |
 //! | `POST /api/controls` | `{"threshold": N \| "auto", "exposure": X}` |
 //! | `POST /api/record`, `POST /api/stop` | a recording folder into the output folder |
@@ -25,7 +26,7 @@ use serde_json::{Value, json};
 
 use super::Studio;
 use super::recorder::{Recorder, next_take};
-use super::security::{ApiError, MAX_BODY_BYTES, guard};
+use super::security::{ApiError, MAX_BODY_BYTES, SESSION_PATH, carries_token, guard};
 use super::state::ExposureControl;
 use crate::assets;
 
@@ -62,6 +63,7 @@ pub fn router(studio: Studio) -> Router {
             get(|| async { page(assets::UPLOT_CSS, CSS) }),
         )
         .route("/review.js", get(|| async { page(assets::REVIEW_JS, JS) }))
+        .route(SESSION_PATH, get(session))
         .route("/api/status", get(status))
         .route("/api/scene", get(scene))
         .route("/api/live", get(live))
@@ -132,6 +134,23 @@ pub fn parse_body<T: serde::de::DeserializeOwned>(body: &Bytes) -> Result<T, Api
     serde_json::from_slice(body).map_err(|e| ApiError::bad_request(format!("request body: {e}")))
 }
 
+/// What a page opened without the token is told (the token is printed, never served).
+pub const NO_TOKEN_MESSAGE: &str = "This page was opened without the studio's token (a bookmark, another tab, or a studio since restarted). Open the address `teachcam studio` printed when it started, http://127.0.0.1:PORT/?token=…; a new token is made each time the studio starts.";
+
+/// `GET /api/session`: 200 either way (a refused request would be an error in the page's
+/// console), `token_ok` false with the message that says how to open the page.
+async fn session(
+    State(studio): State<Studio>,
+    headers: axum::http::HeaderMap,
+    uri: axum::http::Uri,
+) -> axum::Json<Value> {
+    let token_ok = carries_token(&studio, &headers, uri.query());
+    axum::Json(json!({
+        "token_ok": token_ok,
+        "message": if token_ok { "" } else { NO_TOKEN_MESSAGE },
+    }))
+}
+
 async fn status(State(studio): State<Studio>) -> axum::Json<Value> {
     axum::Json(status_json(&studio))
 }
@@ -160,7 +179,8 @@ pub fn status_json(studio: &Studio) -> Value {
         "fps": (live.fps() * 100.0).round() / 100.0,
         "source_fps": live.source_fps,
         "cameras": live.cameras,
-        "rig_cameras": config.rig.len(),
+        "rig_cameras": config.tracking().map_or(0, |(rig, _)| rig.len()),
+        "view_only": config.view_only(),
         "status": live.status.as_ref().map(|(s, _)| s),
         "reason": live.status.as_ref().map(|(_, r)| r),
         "threshold": live.controls.threshold.map_or(json!("auto"), |t| json!(t)),
@@ -181,8 +201,15 @@ pub fn status_json(studio: &Studio) -> Value {
 
 async fn scene(State(studio): State<Studio>) -> axum::Json<Value> {
     let config = studio.config();
-    let cameras: Vec<Value> = config
-        .rig
+    let Some((rig, tool)) = config.tracking() else {
+        return axum::Json(json!({
+            "units": "mm",
+            "cameras": [],
+            "tool": null,
+            "view_only": config.view_only(),
+        }));
+    };
+    let cameras: Vec<Value> = rig
         .iter()
         .map(|(_, c)| {
             let world_from_camera = c.camera_from_world.inverse();
@@ -202,7 +229,6 @@ async fn scene(State(studio): State<Studio>) -> axum::Json<Value> {
             })
         })
         .collect();
-    let tool = &config.tool;
     let tip = tool.tool_from_tcp.translation.vector;
     axum::Json(json!({
         "units": "mm",
@@ -323,9 +349,15 @@ async fn record(State(studio): State<Studio>) -> Result<axum::Json<Value>, ApiEr
     } else {
         teachcam::io::recording::DEFAULT_FPS
     };
+    let Some((rig, tool)) = config.tracking() else {
+        return Err(ApiError::conflict(format!(
+            "nothing is tracked, so nothing is recorded: {}",
+            config.view_only().unwrap_or_default()
+        )));
+    };
     let target = next_take(&config.out);
-    let recorder = Recorder::start(&target, &config.rig, &config.tool, fps)
-        .map_err(|e| ApiError::internal(e.to_string()))?;
+    let recorder =
+        Recorder::start(&target, rig, tool, fps).map_err(|e| ApiError::internal(e.to_string()))?;
     live.recorder = Some(recorder);
     live.take = super::state::Take::default();
     Ok(axum::Json(json!({

@@ -13,8 +13,9 @@ use std::time::{Duration, Instant};
 
 use std::collections::VecDeque;
 
+use teachcam::detect::{DetectConfig, Threshold};
 use teachcam::pipeline::recording::DetectOptions;
-use teachcam::pipeline::{PipelineError, StreamOptions, TrackStream};
+use teachcam::pipeline::{DetectStream, PipelineError, StreamOptions, TrackStream};
 use teachcam::source::sim::{SimConfig, SimSource};
 use teachcam::source::{
     CameraFrame, FrameData, FrameSet, FrameSource, SourceCamera, SourceError, SourceSpec,
@@ -22,7 +23,7 @@ use teachcam::source::{
 };
 use teachcam::track::gates::GateOverrides;
 
-use super::preview::live_message;
+use super::preview::{live_message, view_message};
 use super::state::{CameraCounts, ExposureControl, Studio};
 use super::{StudioConfig, StudioError};
 
@@ -172,6 +173,9 @@ fn stream_options(
         return Ok(options.clone());
     }
     let config = studio.config();
+    let (rig, tool) = config
+        .tracking()
+        .ok_or_else(|| PipelineError::Config("a view-only studio tracks nothing".into()))?;
     let detect = DetectOptions {
         fps: config.source_config.fps,
         threshold,
@@ -180,8 +184,8 @@ fn stream_options(
     let options = StreamOptions::for_source(
         &config.source,
         fps,
-        &config.rig,
-        &config.tool,
+        rig,
+        tool,
         detect,
         GateOverrides::default(),
     )?;
@@ -225,7 +229,12 @@ pub fn run(studio: &Studio, opened: Opened) {
             }
         }
         let Some(current) = feed.as_mut() else { return };
-        match track(studio, current, &last, &controls, &mut learned) {
+        let ended = if config.tracking().is_some() {
+            track(studio, current, &last, &controls, &mut learned)
+        } else {
+            view(studio, current, &last, &controls)
+        };
+        match ended {
             Ended::Restart => {}
             Ended::Error(message) => {
                 studio.live().error = Some(message);
@@ -277,18 +286,20 @@ fn track(
     learned: &mut Option<(Option<u32>, StreamOptions)>,
 ) -> Ended {
     let config = studio.config();
+    let Some((rig, tool)) = config.tracking() else {
+        return Ended::Error("a view-only studio tracks nothing".into());
+    };
     let fps = feed.fps();
     let options = match stream_options(studio, fps, controls.threshold, learned) {
         Ok(options) => options,
         Err(e) => return Ended::Error(e.to_string()),
     };
     // Each rig camera's place among the source's cameras (the rig's order is the stream's).
-    let positions: Vec<Option<usize>> = config
-        .rig
+    let positions: Vec<Option<usize>> = rig
         .iter()
         .map(|(_, c)| feed.cameras.iter().position(|s| s.name == c.name))
         .collect();
-    let mut stream = match TrackStream::new(feed, &config.rig, &config.tool, options) {
+    let mut stream = match TrackStream::new(feed, rig, tool, options) {
         Ok(stream) => stream,
         Err(e) => return Ended::Error(e.to_string()),
     };
@@ -301,20 +312,7 @@ fn track(
             Ok(frame) => frame,
             Err(e) => return Ended::Error(e.to_string()),
         };
-        let set = {
-            let mut kept = last
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            while kept
-                .front()
-                .is_some_and(|s| s.index < frame.detections.index)
-            {
-                kept.pop_front();
-            }
-            kept.front()
-                .filter(|s| s.index == frame.detections.index)
-                .cloned()
-        };
+        let set = kept_set(last, frame.detections.index);
         let images: Vec<Option<&CameraFrame>> = match &set {
             Some(set) => positions
                 .iter()
@@ -334,8 +332,7 @@ fn track(
             live.dropped = stats.dropped_sets;
             live.error = None;
             live.status = Some((frame.status().name().to_string(), frame.reason()));
-            live.cameras = config
-                .rig
+            live.cameras = rig
                 .iter()
                 .map(|(_, camera)| CameraCounts {
                     name: camera.name.clone(),
@@ -354,7 +351,90 @@ fn track(
         }
         if studio.frames().receiver_count() > 0 {
             let fps_now = studio.live().fps();
-            let message = live_message(config, &frame, &images, fps_now);
+            let message = live_message(rig, &frame, &images, fps_now);
+            studio.frames().send_replace(Some(message));
+        }
+        if studio.live().controls.generation != controls.generation {
+            return Ended::Restart;
+        }
+    }
+    Ended::Restart
+}
+
+/// The set the feed kept with this index (the frames the detector saw), dropping the ones
+/// kept before it (a recording played again starts its indices afresh after its last sets).
+fn kept_set(last: &Arc<Mutex<VecDeque<FrameSet>>>, index: usize) -> Option<FrameSet> {
+    let mut kept = last
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let at = kept.iter().position(|s| s.index == index)?;
+    kept.drain(..at);
+    kept.front().cloned()
+}
+
+/// Without a rig: detects every camera of the feed with the detector's defaults (the page's
+/// threshold), as `teachcam detect` does without `--rig`, and shows the frames, the blobs and
+/// what the detector measured of each image; nothing is tracked, the take stays empty.
+fn view(
+    studio: &Studio,
+    feed: &mut Feed,
+    last: &Arc<Mutex<VecDeque<FrameSet>>>,
+    controls: &super::state::Controls,
+) -> Ended {
+    let config = studio.config();
+    let reason = config.view_only().unwrap_or_default().to_string();
+    let detect = DetectConfig {
+        threshold: controls.threshold.map_or(Threshold::Auto, Threshold::Fixed),
+        ..DetectConfig::default()
+    };
+    let fps = feed.fps();
+    let names: Vec<String> = feed.cameras.iter().map(|c| c.name.clone()).collect();
+    let mut stream = match DetectStream::all_cameras(feed, &detect) {
+        Ok(stream) => stream,
+        Err(e) => return Ended::Error(e.to_string()),
+    };
+    studio.live().source_fps = fps;
+    while !studio.is_shutting_down() {
+        let Some(set) = stream.next() else {
+            return Ended::Exhausted;
+        };
+        let set = match set {
+            Ok(set) => set,
+            Err(e) => return Ended::Error(e.to_string()),
+        };
+        let frames = kept_set(last, set.index);
+        let images: Vec<Option<&CameraFrame>> = match &frames {
+            Some(frames) => (0..names.len())
+                .map(|k| frames.cameras.get(k)?.as_ref())
+                .collect(),
+            None => vec![None; names.len()],
+        };
+        {
+            let mut live = studio.live();
+            live.frames += 1;
+            live.tick(Instant::now());
+            live.error = None;
+            live.status = Some(("view-only".to_string(), reason.clone()));
+            live.cameras = names
+                .iter()
+                .zip(&set.cameras)
+                .zip(&images)
+                .map(|((name, detections), image)| {
+                    let (width, height) = image
+                        .and_then(|f| f.decode(name, None).ok())
+                        .map_or((0, 0), |i| i.dimensions());
+                    CameraCounts {
+                        name: name.clone(),
+                        width,
+                        height,
+                        blobs: detections.as_ref().map_or(0, |d| d.blobs.len()),
+                    }
+                })
+                .collect();
+        }
+        if studio.frames().receiver_count() > 0 {
+            let fps_now = studio.live().fps();
+            let message = view_message(&names, &set, &images, &detect, &reason, fps_now);
             studio.frames().send_replace(Some(message));
         }
         if studio.live().controls.generation != controls.generation {

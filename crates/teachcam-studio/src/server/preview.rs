@@ -19,7 +19,8 @@ use teachcam::io::recording::GrayFrame;
 use teachcam::pipeline::TrackedFrame;
 use teachcam::source::CameraFrame;
 
-use super::StudioConfig;
+use teachcam::camera::Rig;
+use teachcam::detect::{Background, DetectConfig, DetectedSet, GrayView, estimate_background};
 
 /// The widest preview sent, pixels: enough to aim a camera and see its markers, small enough
 /// for three cameras at 30 Hz over loopback (3 × 320 × 256 bytes a frame).
@@ -121,14 +122,14 @@ fn pose_json(frame: &TrackedFrame) -> Value {
 /// camera's frame is not at hand.
 #[must_use]
 pub fn live_message(
-    config: &StudioConfig,
+    rig: &Rig,
     frame: &TrackedFrame,
     images: &[Option<&CameraFrame>],
     fps: f64,
 ) -> Bytes {
     let mut pixels: Vec<u8> = Vec::new();
     let mut cameras = Vec::new();
-    for ((id, camera), image) in config.rig.iter().zip(images) {
+    for ((id, camera), image) in rig.iter().zip(images) {
         let detections = frame.detections.of(&camera.name);
         let shrunk = image
             .and_then(|f| f.decode(&camera.name, None).ok())
@@ -177,6 +178,103 @@ pub fn live_message(
         "reason": frame.track.reason(),
         "tool": pose_json(frame),
         "tip_std_mm": frame.tip_std_mm.map(|s| round(s, 4)),
+        "fps": round(fps, 2),
+        "cameras": cameras,
+    })
+    .to_string();
+    let mut message = Vec::with_capacity(4 + header.len() + pixels.len());
+    message.extend_from_slice(&(header.len() as u32).to_le_bytes());
+    message.extend_from_slice(header.as_bytes());
+    message.extend_from_slice(&pixels);
+    Bytes::from(message)
+}
+
+/// What the detector measured of one camera's frame: its background level and noise (robust
+/// σ), the automatic threshold they give, the threshold in use, and the size and roundness
+/// limits blobs were held to.
+fn measured_json(image: Option<&GrayFrame>, config: &DetectConfig) -> Value {
+    let Some(image) = image else {
+        return Value::Null;
+    };
+    let (background, auto, full_scale): (Background, u32, u32) = match image {
+        GrayFrame::Eight(i) => {
+            let b = estimate_background(GrayView::new(i));
+            (b, b.auto_threshold::<u8>(), 255)
+        }
+        GrayFrame::Sixteen(i) => {
+            let b = estimate_background(GrayView::new(i));
+            (b, b.auto_threshold::<u16>(), 65535)
+        }
+    };
+    json!({
+        "background": round(background.level, 2),
+        "noise_std": round(background.noise_std, 3),
+        "auto_threshold": auto,
+        "threshold": match config.threshold {
+            teachcam::detect::Threshold::Auto => auto,
+            teachcam::detect::Threshold::Fixed(t) => t,
+        },
+        "full_scale": full_scale,
+        "min_area_px": config.min_area_px,
+        "max_area_px": config.max_area_px,
+        "min_roundness": config.min_roundness,
+    })
+}
+
+/// The binary message of one set looked at without a rig: the same layout as
+/// [`live_message`] (no pose, no labels, status `view-only`), each camera with what the
+/// detector measured of its frame (`measured`).
+#[must_use]
+pub fn view_message(
+    names: &[String],
+    set: &DetectedSet,
+    images: &[Option<&CameraFrame>],
+    config: &DetectConfig,
+    reason: &str,
+    fps: f64,
+) -> Bytes {
+    let mut pixels: Vec<u8> = Vec::new();
+    let mut cameras = Vec::new();
+    for ((name, detections), image) in names.iter().zip(&set.cameras).zip(images) {
+        let decoded = image.and_then(|f| f.decode(name, None).ok());
+        let shrunk = decoded.as_ref().map(|i| preview(i, PREVIEW_WIDTH));
+        let blobs: Vec<[f64; 3]> = detections
+            .iter()
+            .flat_map(|d| &d.blobs)
+            .map(|b| {
+                [
+                    round(b.center.x, 2),
+                    round(b.center.y, 2),
+                    round(b.radius_px, 2),
+                ]
+            })
+            .collect();
+        let (width, height, scale) = shrunk
+            .as_ref()
+            .map_or((0, 0, 1), |p| (p.width, p.height, p.scale));
+        if let Some(p) = &shrunk {
+            pixels.extend_from_slice(&p.pixels);
+        }
+        let (image_width, image_height) = decoded.as_ref().map_or((0, 0), |i| i.dimensions());
+        cameras.push(json!({
+            "name": name,
+            "image_width": image_width,
+            "image_height": image_height,
+            "width": width,
+            "height": height,
+            "scale": scale,
+            "blobs": blobs,
+            "labels": [],
+            "measured": measured_json(decoded.as_deref(), config),
+        }));
+    }
+    let header = json!({
+        "frame": set.index,
+        "time_s": round(set.time_s, 6),
+        "status": "view-only",
+        "reason": reason,
+        "tool": null,
+        "tip_std_mm": null,
         "fps": round(fps, 2),
         "cameras": cameras,
     })

@@ -37,7 +37,8 @@ const MAX_PATH_FRAMES: usize = 600;
 pub struct RobotQuery {
     /// `irb120`, `kr6-r700`, `kr6-r900`, `ur5e`, `ur10e`.
     robot: Option<String>,
-    /// The work object in the robot's base, `x,y,z,qw,qx,qy,qz`.
+    /// The work object in the robot's base, `x,y,z,qw,qx,qy,qz`; absent, empty or `auto`: at
+    /// the base (identity), or the check's suggested one when the path fails there.
     wobj: Option<String>,
     /// The TCP in the maker's flange frame, `x,y,z,qw,qx,qy,qz`.
     tcp: Option<String>,
@@ -57,6 +58,35 @@ struct Checked {
     report: CheckReport,
     gaps: usize,
     cutoff_hz: f64,
+    /// How the work object was chosen, said to the user.
+    placement: Placement,
+}
+
+/// Where the checked work object came from.
+#[derive(Debug, Clone, PartialEq)]
+enum Placement {
+    /// Given in the request.
+    Given,
+    /// Automatic, and the default (at the robot's base) works.
+    Default,
+    /// Automatic: the default fails this many of so many frames, and the check's suggestion
+    /// (verified to pass) is used instead.
+    Suggested { failing: usize, frames: usize },
+}
+
+impl Placement {
+    fn json(&self) -> Value {
+        match self {
+            Self::Given => json!({"from": "given", "note": ""}),
+            Self::Default => {
+                json!({"from": "default", "note": "the work object at the robot's base (the default) works"})
+            }
+            Self::Suggested { failing, frames } => json!({
+                "from": "suggested",
+                "note": format!("the default work object (at the robot's base) fails {failing} of {frames} frames, so the check's suggested placement is used; edit wobj to place it yourself"),
+            }),
+        }
+    }
 }
 
 /// A cut-off from the query, checked.
@@ -95,25 +125,60 @@ fn check(studio: &Studio, query: &RobotQuery) -> Result<Checked, ApiError> {
             KNOWN_ROBOTS.join(", ")
         ))
     })?;
-    let cell = Cell {
-        base_from_wobj: pose_field(query.wobj.as_deref(), "wobj")?,
+    let automatic = query
+        .wobj
+        .as_deref()
+        .is_none_or(|w| w.trim().is_empty() || w.trim() == "auto");
+    let mut cell = Cell {
+        base_from_wobj: if automatic {
+            Pose::identity()
+        } else {
+            pose_field(query.wobj.as_deref(), "wobj")?
+        },
         flange_from_tcp: pose_field(query.tcp.as_deref(), "tcp")?,
     };
     let cutoff_hz = cutoff(query.cutoff_hz.as_deref())?;
     let trajectory = smoothed_take(studio, cutoff_hz)?;
-    let targets = tcp_targets(&trajectory, &studio.config().tool.tool_from_tcp.rotation);
+    let Some((_, tool)) = studio.config().tracking() else {
+        return Err(ApiError::conflict(format!(
+            "nothing is tracked: {}",
+            studio.config().view_only().unwrap_or_default()
+        )));
+    };
+    let targets = tcp_targets(&trajectory, &tool.tool_from_tcp.rotation);
     if targets.is_empty() {
         return Err(ApiError::unprocessable(
             "no frame of the smoothed take has a pose (runs too short for the filter)",
         ));
     }
-    let report = check_path(&robot, &cell, &targets, &CheckConfig::default());
+    let config = CheckConfig::default();
+    let mut report = check_path(&robot, &cell, &targets, &config);
+    let mut placement = if automatic {
+        Placement::Default
+    } else {
+        Placement::Given
+    };
+    if automatic && !report.passes() {
+        let suggested = report.suggestions.iter().find_map(|s| match s {
+            Suggestion::UseWorkObject { base_from_wobj } => Some(*base_from_wobj),
+            Suggestion::SlowDown { .. } => None,
+        });
+        if let Some(base_from_wobj) = suggested {
+            placement = Placement::Suggested {
+                failing: report.failing().count(),
+                frames: report.frames.len(),
+            };
+            cell.base_from_wobj = base_from_wobj;
+            report = check_path(&robot, &cell, &targets, &config);
+        }
+    }
     Ok(Checked {
         gaps: trajectory.len() - targets.len(),
         robot,
         cell,
         report,
         cutoff_hz,
+        placement,
     })
 }
 
@@ -139,6 +204,7 @@ pub async fn robot(
         report,
         gaps,
         cutoff_hz,
+        placement,
     } = &checked;
     let limits: Vec<Value> = robot
         .limits
@@ -199,6 +265,7 @@ pub async fn robot(
         "limits": limits,
         "suggestions": suggestions,
         "wobj": pose_text(&wobj),
+        "placement": placement.json(),
         "wobj_frame": {"position_mm": [wobj.translation.x, wobj.translation.y, wobj.translation.z], "quaternion": [q.w, q.i, q.j, q.k]},
         "tcp": pose_text(&cell.flange_from_tcp),
         "path": path,

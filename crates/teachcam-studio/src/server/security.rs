@@ -7,6 +7,8 @@
 //!   token and an `Origin` equal to the server's own (`http://HOST:PORT` of the request's
 //!   `Host`, and on loopback that host must be a loopback name): another site open in the same
 //!   browser can neither start a recording nor, by DNS rebinding, read the API.
+//! - `GET /api/session` ([`SESSION_PATH`]) is open: it says only whether the request's token
+//!   is right, so that a page opened without it can tell the user how to open it.
 //! - Request bodies are bounded ([`MAX_BODY_BYTES`]); a larger one is refused with 413.
 //! - No route takes a path: the studio serves its compiled-in page, and what it computes, never
 //!   a file named by a request.
@@ -24,6 +26,11 @@ use super::Studio;
 
 /// The largest request body accepted, bytes: the studio's requests are a few small fields.
 pub const MAX_BODY_BYTES: usize = 16 * 1024;
+
+/// The one API route open without the token: it answers whether the page's token is this
+/// studio's, so that a page opened without it (a bookmark, a second tab) can say how to open
+/// it instead of failing on refused requests. It tells nothing else.
+pub const SESSION_PATH: &str = "/api/session";
 
 /// The header that carries the token.
 pub const TOKEN_HEADER: &str = "x-teachcam-token";
@@ -111,6 +118,12 @@ fn request_token<'r>(headers: &'r HeaderMap, query: Option<&'r str>) -> Option<&
         })
 }
 
+/// Whether a request carries this studio's token.
+#[must_use]
+pub fn carries_token(studio: &Studio, headers: &HeaderMap, query: Option<&str>) -> bool {
+    request_token(headers, query).is_some_and(|t| same(t, studio.token()))
+}
+
 /// Compares without stopping at the first difference.
 fn same(a: &str, b: &str) -> bool {
     a.len() == b.len()
@@ -150,10 +163,10 @@ fn refusal(
             "host {host:?} is not this machine: the studio listens on loopback only (--listen ADDR serves others, with the token)"
         ));
     }
-    if !path.starts_with("/api/") {
+    if !path.starts_with("/api/") || path == SESSION_PATH {
         return None;
     }
-    let token_ok = request_token(headers, query).is_some_and(|t| same(t, studio.token()));
+    let token_ok = carries_token(studio, headers, query);
     let changes_state = *method != Method::GET && *method != Method::HEAD || path == "/api/live";
     if (studio.config().token_everywhere || changes_state) && !token_ok {
         return Some(format!(

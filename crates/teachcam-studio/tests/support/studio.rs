@@ -10,7 +10,7 @@ use std::sync::Arc;
 use teachcam::sim::Scenario;
 use teachcam::source::sim::SimConfig;
 use teachcam::source::{SourceConfig, SourceSpec};
-use teachcam_studio::server::{Event, Studio, StudioConfig, api};
+use teachcam_studio::server::{Event, Model, Studio, StudioConfig, api};
 
 /// The studio's configuration for the paper's simulated rig, `cached_frames` rendered ahead
 /// (fewer: faster to start, a shorter back-and-forth stroke), recordings into `out`.
@@ -26,8 +26,10 @@ pub fn sim_config(out: &Path, cached_frames: usize) -> StudioConfig {
             sim,
             ..SourceConfig::default()
         },
-        rig: scene.rig,
-        tool: scene.tool,
+        model: Model::Track {
+            rig: scene.rig,
+            tool: scene.tool,
+        },
         truth: None,
         out: out.to_path_buf(),
         listen: SocketAddr::from(([127, 0, 0, 1], 0)),

@@ -20,6 +20,8 @@ const studio = (window.teachcamStudio = {
   reviewSignature: null, // a digest of the plotted review data (changes when the curve does)
   reviewFigures: null, // the review's figure slots last drawn
   status: null, // the last /api/status
+  tokenRefused: null, // true when the page was opened without this studio's token
+  viewOnly: null, // why nothing is tracked (a recording without a rig), or null
   frameMs: 0, // smoothed time to draw a live frame on the camera canvases, ms
   renderMs: 0, // smoothed time of a 3-D render, ms
 });
@@ -56,6 +58,7 @@ for (const button of document.querySelectorAll("nav button")) {
     for (const tab of document.querySelectorAll(".tab")) tab.classList.toggle("active", tab.id === `tab-${button.dataset.tab}`);
     if (button.dataset.tab === "live") resizeScene();
     if (button.dataset.tab === "review") requestReview();
+    if (button.dataset.tab === "robot") openRobotTab();
     history.replaceState(null, "", `${location.search}#${button.dataset.tab}`);
   });
 }
@@ -85,7 +88,40 @@ function cameraView(index, camera) {
   view.canvas.height = Math.max(camera.height, 1);
   view.canvas.dataset.camera = camera.name;
   view.image = view.context.createImageData(view.canvas.width, view.canvas.height);
+  layoutCameras();
   return view;
+}
+
+// The camera tiles fill the pane's width and the window's height: as many columns as give
+// the largest tiles with every camera above the fold.
+function layoutCameras() {
+  const box = $("cameras");
+  const n = cameraViews.length;
+  if (n === 0 || !$("tab-live").classList.contains("active")) return;
+  const gap = 8;
+  const caption = 22;
+  const width = box.clientWidth;
+  const height = Math.max(window.innerHeight - box.getBoundingClientRect().top - 12, 120);
+  const first = cameraViews[0].canvas;
+  const aspect = first.width / Math.max(first.height, 1);
+  let best = { columns: 1, tile: 0 };
+  for (let columns = 1; columns <= n; columns += 1) {
+    const rows = Math.ceil(n / columns);
+    const across = (width - gap * (columns - 1)) / columns;
+    const down = ((height - gap * (rows - 1)) / rows - caption) * aspect;
+    const tile = Math.min(across, down);
+    if (tile > best.tile) best = { columns, tile };
+  }
+  const tile = Math.max(Math.floor(best.tile), 80);
+  box.style.gridTemplateColumns = `repeat(${best.columns}, ${tile}px)`;
+  studio.cameraColumns = best.columns;
+}
+
+// The 3-D view as tall as the window allows (the legend and arm controls below it).
+function layoutScene() {
+  const top = sceneBox.getBoundingClientRect().top;
+  const height = Math.max(Math.min(window.innerHeight - top - 70, 900), 300);
+  sceneBox.style.height = `${Math.round(height)}px`;
 }
 
 function drawCamera(index, camera, pixels) {
@@ -111,11 +147,67 @@ function drawCamera(index, camera, pixels) {
   }
   context.fillStyle = "#ff8800";
   context.font = "11px system-ui, sans-serif";
-  for (const [x, y, marker] of camera.labels) {
-    context.fillText(`m${marker}`, (x + 0.5) / s + 6, (y + 0.5) / s - 6);
+  placeLabels(context, camera, s);
+  let caption = `${camera.name}: ${camera.blobs.length} blobs, ${camera.labels.length} labelled`;
+  const m = camera.measured;
+  if (m) {
+    // A view-only studio: what the detector measured of this frame, and its limits.
+    const radii = camera.blobs.map((b) => b[2]);
+    const sizes = radii.length ? `, radius ${Math.min(...radii).toFixed(1)}–${Math.max(...radii).toFixed(1)} px` : "";
+    caption = `${camera.name} (${camera.image_width}×${camera.image_height}): ${camera.blobs.length} blobs${sizes}; background ${m.background.toFixed(1)}, noise σ ${m.noise_std.toFixed(2)}, threshold ${m.threshold}${m.threshold === m.auto_threshold ? " (auto)" : ` (auto ${m.auto_threshold})`} of ${m.full_scale}; blobs kept from ${m.min_area_px} to ${m.max_area_px} px², roundness ≥ ${m.min_roundness}`;
+    view.card.dataset.threshold = m.threshold;
   }
-  view.caption.textContent = `${camera.name}: ${camera.blobs.length} blobs, ${camera.labels.length} labelled`;
+  view.caption.textContent = caption;
   view.card.dataset.blobs = camera.blobs.length;
+}
+
+// Marker labels placed apart: each takes the first spot around its blob (8 directions, then
+// farther) that overlaps no label placed before it and no blob; a thin line joins a label
+// moved away to its blob.
+const LABEL_SPOTS = [];
+for (const distance of [7, 14, 22]) {
+  for (const [dx, dy] of [[1, -1], [1, 1], [-1, -1], [-1, 1], [1, 0], [-1, 0], [0, -1], [0, 1]]) LABEL_SPOTS.push([dx * distance, dy * distance, distance]);
+}
+
+function placeLabels(context, camera, s) {
+  const taken = camera.blobs.map(([x, y, r]) => {
+    const radius = Math.max(r / s + 2, 3);
+    return { x0: (x + 0.5) / s - radius, y0: (y + 0.5) / s - radius, x1: (x + 0.5) / s + radius, y1: (y + 0.5) / s + radius };
+  });
+  const overlaps = (a) => taken.some((b) => a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1);
+  const height = 11;
+  let crowded = 0;
+  for (const [x, y, marker] of camera.labels) {
+    const text = `m${marker}`;
+    const width = context.measureText(text).width;
+    const px = (x + 0.5) / s;
+    const py = (y + 0.5) / s;
+    let chosen = null;
+    for (const [dx, dy, distance] of LABEL_SPOTS) {
+      const x0 = dx > 0 ? px + dx : dx < 0 ? px + dx - width : px - width / 2;
+      const y0 = dy > 0 ? py + dy : dy < 0 ? py + dy - height : py - height / 2;
+      const box = { x0, y0, x1: x0 + width, y1: y0 + height, distance };
+      if (!overlaps(box)) {
+        chosen = box;
+        break;
+      }
+    }
+    if (!chosen) {
+      crowded += 1;
+      chosen = { x0: px + 7, y0: py - 7 - height, x1: px + 7 + width, y1: py - 7, distance: 7 };
+    }
+    taken.push(chosen);
+    if (chosen.distance > 7) {
+      context.strokeStyle = "rgba(255,136,0,0.6)";
+      context.lineWidth = 1;
+      context.beginPath();
+      context.moveTo(px, py);
+      context.lineTo((chosen.x0 + chosen.x1) / 2, (chosen.y0 + chosen.y1) / 2);
+      context.stroke();
+    }
+    context.fillText(text, chosen.x0, chosen.y1 - 2);
+  }
+  studio.labelsCrowded = crowded;
 }
 
 const drawTimes = [];
@@ -319,8 +411,12 @@ function updateTool(frame) {
     lastTip = frame.tool.tip_mm;
     trailCount = pushRing(trailPositions, trailCount, TRAIL, lastTip, trailGeometry);
     if (!framed) {
+      // The first pose: the cell now holds the tool too.
       framed = true;
-      frameView(new THREE.Vector3(x, y, z));
+      if (!cellBox.containsPoint(new THREE.Vector3(x, y, z))) {
+        cellBox.expandByPoint(new THREE.Vector3(x, y, z));
+        frameView();
+      }
     }
   } else {
     tool.visible = false;
@@ -334,32 +430,151 @@ function updateTool(frame) {
 let sceneInfo = null;
 let sceneReady = false;
 
-function frameView(target) {
-  // Look at the tool from beyond the rig's mean camera, close enough to see its markers.
-  const centre = new THREE.Vector3();
+// The cell's extent: the cameras, the world origin, and the tool's trail once seen.
+const cellBox = new THREE.Box3();
+
+function viewUp() {
+  // The rig's mean "up" (cameras' −y): a world with z into the table and one with z up both
+  // show the floor below.
   const up = new THREE.Vector3();
   for (const camera of sceneInfo?.cameras ?? []) {
-    centre.add(new THREE.Vector3(...camera.position_mm));
     const r = camera.rotation;
     up.sub(new THREE.Vector3(r[0][1], r[1][1], r[2][1]));
   }
-  if (!sceneInfo || sceneInfo.cameras.length === 0) centre.set(0, -1000, 1000);
-  else centre.divideScalar(sceneInfo.cameras.length);
-  if (up.lengthSq() > 0) view3.up.copy(up.normalize());
-  const direction = centre.clone().sub(target);
-  if (direction.lengthSq() === 0) direction.set(0, 0, 1);
-  view3.position.copy(target.clone().add(direction.normalize().multiplyScalar(700)));
-  orbit.target.copy(target);
+  return up.lengthSq() > 0 ? up.normalize() : new THREE.Vector3(0, 0, 1);
+}
+
+function frameView() {
+  // The whole cell in view: from beyond the cameras' mean position, far enough back that the
+  // cell's bounding sphere fits the narrower field of view.
+  const centre = cellBox.getCenter(new THREE.Vector3());
+  const radius = Math.max(cellBox.getSize(new THREE.Vector3()).length() / 2, 200);
+  const eye = new THREE.Vector3();
+  const cameras = sceneInfo?.cameras ?? [];
+  for (const camera of cameras) eye.add(new THREE.Vector3(...camera.position_mm));
+  if (cameras.length === 0) eye.set(0, -1000, 1000);
+  else eye.divideScalar(cameras.length);
+  const up = viewUp();
+  view3.up.copy(up);
+  // From the cameras' side, 35° above the floor: the floor, its grid and the frusta in depth.
+  const side = eye.sub(centre);
+  side.addScaledVector(up, -side.dot(up));
+  if (side.lengthSq() < 1e-6) side.set(1, 0, 0).addScaledVector(up, -up.x);
+  side.normalize();
+  const elevation = THREE.MathUtils.degToRad(35);
+  const direction = side.multiplyScalar(Math.cos(elevation)).addScaledVector(up, Math.sin(elevation));
+  const halfFov = THREE.MathUtils.degToRad(view3.fov / 2);
+  const narrow = Math.min(halfFov, Math.atan(Math.tan(halfFov) * view3.aspect));
+  const distance = (1.05 * radius) / Math.sin(narrow);
+  view3.position.copy(centre.clone().add(direction.normalize().multiplyScalar(distance)));
+  view3.near = Math.max(distance / 100, 1);
+  view3.far = distance * 20;
+  view3.updateProjectionMatrix();
+  orbit.target.copy(centre);
   orbit.update();
+  studio.framedRadiusMm = radius;
+  needsRender = true;
+}
+
+// The height of the 3-D view's text, mm: readable from the distance the cell is framed at.
+function textMm() {
+  return Math.max(cellBox.getSize(new THREE.Vector3()).length() / 45, 15);
+}
+
+// A text label that faces the viewer, `height` mm tall.
+function label(text, height, colour = "#e3e6ea") {
+  const canvas = document.createElement("canvas");
+  const context = canvas.getContext("2d");
+  const font = "bold 48px system-ui, sans-serif";
+  context.font = font;
+  canvas.width = Math.ceil(context.measureText(text).width) + 16;
+  canvas.height = 64;
+  context.font = font;
+  context.fillStyle = colour;
+  context.textBaseline = "middle";
+  context.fillText(text, 8, 32);
+  const texture = new THREE.CanvasTexture(canvas);
+  texture.colorSpace = THREE.SRGBColorSpace;
+  const sprite = new THREE.Sprite(new THREE.SpriteMaterial({ map: texture, depthTest: false, transparent: true }));
+  sprite.scale.set((height * canvas.width) / canvas.height, height, 1);
+  sprite.center.set(0, 0.5);
+  sprite.renderOrder = 2;
+  return sprite;
+}
+
+// Axes of `length` mm with x, y, z and a name at the origin.
+function labelledAxes(name, length) {
+  const group = new THREE.Group();
+  group.add(new THREE.AxesHelper(length));
+  const size = textMm();
+  for (const [axis, colour, at] of [["x", "#ff5555", [1, 0, 0]], ["y", "#55ff55", [0, 1, 0]], ["z", "#5599ff", [0, 0, 1]]]) {
+    const tag = label(axis, size, colour);
+    tag.position.set(...at.map((a) => a * length * 1.08));
+    group.add(tag);
+  }
+  const title = label(name, size);
+  title.position.set(size / 2, -size, 0);
+  group.add(title);
+  group.name = name;
+  return group;
+}
+
+// The floor: a grid in the world's xy plane (the table a rig is calibrated on) with round
+// spacing, and a scale bar one cell long with its length written on it.
+function addFloor() {
+  const size = cellBox.getSize(new THREE.Vector3());
+  const centre = cellBox.getCenter(new THREE.Vector3());
+  const span = Math.max(size.x, size.y, 500);
+  const steps = [10, 20, 50, 100, 200, 250, 500, 1000, 2000, 5000];
+  const cell = steps.find((s) => span / s <= 16) ?? 5000;
+  const cells = 2 * Math.ceil(span / cell / 2) + 2;
+  const grid = new THREE.GridHelper(cells * cell, cells, 0x3a434e, 0x262c34);
+  grid.rotation.x = Math.PI / 2; // GridHelper lies in xz; the floor is the world's xy.
+  grid.position.set(Math.round(centre.x / cell) * cell, Math.round(centre.y / cell) * cell, 0);
+  grid.name = "floor";
+  scene.add(grid);
+  const half = (cells * cell) / 2;
+  const start = new THREE.Vector3(grid.position.x - half + cell, grid.position.y - half + cell / 2, 0);
+  const end = start.clone().add(new THREE.Vector3(cell, 0, 0));
+  const bar = new THREE.Line(new THREE.BufferGeometry().setFromPoints([start, end]), new THREE.LineBasicMaterial({ color: 0xffffff }));
+  bar.name = "scale-bar";
+  scene.add(bar);
+  const text = cell >= 1000 ? `${cell / 1000} m` : `${cell} mm`;
+  const tag = label(text, textMm());
+  tag.position.copy(start).add(new THREE.Vector3(0, textMm(), 0));
+  scene.add(tag);
+  studio.gridCellMm = cell;
+  studio.scaleBar = text;
 }
 
 async function loadScene() {
   sceneInfo = await api("/api/scene");
+  if (sceneInfo.view_only) {
+    // No rig: the cameras' frames and detections only.
+    studio.viewOnly = sceneInfo.view_only;
+    document.body.classList.add("view-only");
+    $("view-only").textContent = `View only: ${sceneInfo.view_only}`;
+    $("view-only").hidden = false;
+    for (const tab of ["review", "robot"]) {
+      const button = document.querySelector(`nav button[data-tab="${tab}"]`);
+      button.disabled = true;
+      button.title = "nothing is tracked without a rig";
+    }
+    $("record").disabled = true;
+    $("record").title = "nothing is tracked without a rig";
+    sceneReady = true;
+    return;
+  }
   const palette = [0x7986cb, 0x4db6ac, 0xffd54f, 0xba68c8, 0x90a4ae, 0xf06292];
+  cellBox.makeEmpty();
+  cellBox.expandByPoint(new THREE.Vector3(0, 0, 0));
   sceneInfo.cameras.forEach((camera, i) => {
-    const depth = 400;
     const r = camera.rotation;
     const position = new THREE.Vector3(...camera.position_mm);
+    // The frustum reaches the depth of the world origin along the camera's axis (the working
+    // volume), at least 200 mm.
+    const axis = new THREE.Vector3(r[0][2], r[1][2], r[2][2]);
+    const depth = Math.max(-position.dot(axis), 200);
     const corner = (u, v) => {
       const x = ((u - camera.cx) / camera.fx) * depth;
       const y = ((v - camera.cy) / camera.fy) * depth;
@@ -379,10 +594,15 @@ async function loadScene() {
     );
     frustum.name = camera.name;
     scene.add(frustum);
+    const name = label(camera.name, 60, `#${palette[i % palette.length].toString(16).padStart(6, "0")}`);
+    name.position.copy(position);
+    scene.add(name);
+    cellBox.expandByPoint(position);
+    for (const p of c) cellBox.expandByPoint(p);
   });
-  const wobj = new THREE.AxesHelper(100);
-  wobj.name = "wobj";
-  scene.add(wobj);
+  addFloor();
+  const axesLength = 2 * studio.gridCellMm;
+  scene.add(labelledAxes("world = work object", axesLength));
   const markerMaterial = new THREE.MeshBasicMaterial({ color: TOOL_COLOUR });
   const radius = sceneInfo.tool.marker_diameter_mm / 2;
   const centroid = new THREE.Vector3();
@@ -401,11 +621,20 @@ async function loadScene() {
   const tipBall = new THREE.Mesh(new THREE.SphereGeometry(2.5, 12, 8), new THREE.MeshBasicMaterial({ color: 0xffffff }));
   tipBall.position.copy(tip);
   tool.add(tipBall);
-  if (!framed) frameView(new THREE.Vector3(0, 0, 0));
+  // The markers also as points of a fixed size on screen: seen from the whole cell's distance
+  // a 12 mm sphere is a pixel or two.
+  const glyphs = new THREE.Points(
+    new THREE.BufferGeometry().setFromPoints(sceneInfo.tool.markers_mm.map((m) => new THREE.Vector3(...m))),
+    new THREE.PointsMaterial({ color: TOOL_COLOUR, size: 6, sizeAttenuation: false }),
+  );
+  tool.add(glyphs);
+  frameView();
   sceneReady = true;
 }
 
 function resizeScene() {
+  layoutScene();
+  layoutCameras();
   const width = sceneBox.clientWidth || 640;
   const height = sceneBox.clientHeight || 480;
   renderer.setSize(width, height, false);
@@ -472,6 +701,13 @@ function showRobot(result) {
   arm.matrix.copy(baseFromWobj.clone().invert());
   arm.matrixWorldNeedsUpdate = true;
   if (armLinks.length === 0) {
+    arm.add(labelledAxes("robot base", 2 * (studio.gridCellMm || 100)));
+    // The first arm shown: the cell now holds its base too.
+    const base = new THREE.Vector3().applyMatrix4(arm.matrix);
+    if (!cellBox.containsPoint(base)) {
+      cellBox.expandByPoint(base);
+      frameView();
+    }
     for (let k = 0; k < 6; k += 1) {
       const link = new THREE.Mesh(new THREE.CylinderGeometry(18, 18, 1, 12), armMaterial);
       arm.add(link);
@@ -595,6 +831,10 @@ async function checkRobot() {
     $("robot-summary").textContent = `${result.robot}: ${result.frames} frames checked at ${result.cutoff_hz} Hz; ${verdict}; peak joint speed ${(100 * result.peak_speed_ratio).toFixed(0)} % of the limit. ${result.suggestions.map((s) => s.text).join(" ")}`;
     const rows = result.limits.map((l, i) => `<tr><td>axis ${i + 1}</td><td>${l.min_deg.toFixed(1)}</td><td>${l.max_deg.toFixed(1)}</td><td>${l.max_speed_deg_s.toFixed(0)}</td><td>${l.peak_speed_deg_s.toFixed(1)}</td><td class="${l.speed_margin < 0.1 ? "tight" : ""}">${(100 * l.speed_margin).toFixed(0)} %</td></tr>`);
     $("robot-limits").innerHTML = `<tr><th></th><th>min °</th><th>max °</th><th>max °/s</th><th>peak °/s</th><th>speed margin</th></tr>${rows.join("")}`;
+    const placement = result.placement || { from: "given", note: "" };
+    $("robot-placement").textContent =
+      placement.from === "given" ? `work object ${result.wobj} (given)` : `work object ${result.wobj}: ${placement.note}`;
+    $("robot-placement").dataset.from = placement.from;
     const suggestion = result.suggestions.find((s) => s.wobj);
     const use = $("use-suggestion");
     use.disabled = !suggestion;
@@ -615,7 +855,25 @@ $("use-suggestion").addEventListener("click", () => {
   $("wobj").value = $("use-suggestion").dataset.wobj;
   checkRobot();
 });
-for (const id of ["robot-name", "wobj", "tcp"]) $(id).addEventListener("change", () => setExports(null));
+for (const id of ["wobj", "tcp"]) $(id).addEventListener("change", () => setExports(null));
+// Choosing a robot checks the take on it (the arm appears in the 3-D view).
+$("robot-name").addEventListener("change", () => {
+  setExports(null);
+  checkRobot();
+});
+// The first time the tab opens on a take, it checks at once: from the suggested placement
+// when the default cannot work.
+let robotChecked = false;
+function openRobotTab() {
+  if (robotChecked) return;
+  if (!studio.status || studio.status.take_frames < 30) {
+    $("robot-summary").textContent = "waiting for a take (let the source run, or record one)";
+    if ($("tab-robot").classList.contains("active")) setTimeout(openRobotTab, 1000);
+    return;
+  }
+  robotChecked = true;
+  checkRobot();
+}
 
 // ---- review ----
 let reviewTimer = null;
@@ -673,13 +931,34 @@ $("cutoff").addEventListener("input", () => {
 });
 
 // ---- start ----
-resizeScene();
-loadScene()
-  .catch((error) => showError(error.message))
-  .finally(() => {
-    connect();
-    requestAnimationFrame(render);
-  });
-pollStatus();
-setInterval(pollStatus, 1000);
-openTabOfLink();
+// The page asks first whether its token is this studio's (`/api/session` answers without it):
+// opened from a bookmark or a second tab it says how to open it, and opens nothing that the
+// server would refuse (a refused WebSocket or request is an error in the console).
+async function start() {
+  let session;
+  try {
+    session = await fetch(`/api/session?token=${encodeURIComponent(token)}`).then((r) => r.json());
+  } catch (error) {
+    showError(`cannot reach the studio: ${error.message}`);
+    return;
+  }
+  if (!session.token_ok) {
+    studio.tokenRefused = true;
+    document.body.classList.add("no-token");
+    $("no-token-message").textContent = session.message.replace("127.0.0.1:PORT", location.host);
+    $("no-token").hidden = false;
+    return;
+  }
+  studio.tokenRefused = false;
+  resizeScene();
+  loadScene()
+    .catch((error) => showError(error.message))
+    .finally(() => {
+      connect();
+      requestAnimationFrame(render);
+    });
+  pollStatus();
+  setInterval(pollStatus, 1000);
+  openTabOfLink();
+}
+start();

@@ -47,10 +47,55 @@ pub fn hann(n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// The detrended, Hann-windowed single-sided amplitude spectrum of `values` sampled at
-/// `sample_rate_hz` (see the module's model); empty for fewer than 4 samples.
+/// The window applied before the transform.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Window {
+    /// The periodic Hann window (the report's, and `teachcam spectrum`'s default).
+    #[default]
+    Hann,
+    /// No window (rectangular): the plain FFT, whose leak falls as `1/f` only.
+    None,
+}
+
+/// How a spectrum is taken: the window, and whether the least-squares line is removed first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SpectrumMethod {
+    /// The window.
+    pub window: Window,
+    /// Remove the least-squares line before windowing.
+    pub detrend: bool,
+}
+
+impl Default for SpectrumMethod {
+    /// Detrended and Hann-windowed: the report's spectrum.
+    fn default() -> Self {
+        Self {
+            window: Window::Hann,
+            detrend: true,
+        }
+    }
+}
+
+impl std::fmt::Display for SpectrumMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let window = match self.window {
+            Window::Hann => "Hann-windowed",
+            Window::None => "not windowed",
+        };
+        let trend = if self.detrend {
+            "detrended"
+        } else {
+            "not detrended"
+        };
+        write!(f, "{trend}, {window}")
+    }
+}
+
+/// The single-sided amplitude spectrum of `values` sampled at `sample_rate_hz`, taken as
+/// `method` says (see the module's model; without the window the gain is `n`); empty for
+/// fewer than 4 samples.
 #[must_use]
-pub fn windowed_spectrum(values: &[f64], sample_rate_hz: f64) -> Spectrum {
+pub fn spectrum_with(values: &[f64], sample_rate_hz: f64, method: SpectrumMethod) -> Spectrum {
     let n = values.len();
     if n < 4 {
         return Spectrum {
@@ -58,14 +103,27 @@ pub fn windowed_spectrum(values: &[f64], sample_rate_hz: f64) -> Spectrum {
             amplitude: Vec::new(),
         };
     }
-    let window = hann(n);
-    let gain: f64 = window.iter().sum();
-    let input: Vec<f64> = detrended(values)
-        .iter()
-        .zip(&window)
-        .map(|(x, w)| x * w)
-        .collect();
-    single_sided(input, sample_rate_hz, gain)
+    let values = if method.detrend {
+        detrended(values)
+    } else {
+        values.to_vec()
+    };
+    match method.window {
+        Window::Hann => {
+            let window = hann(n);
+            let gain: f64 = window.iter().sum();
+            let input: Vec<f64> = values.iter().zip(&window).map(|(x, w)| x * w).collect();
+            single_sided(input, sample_rate_hz, gain)
+        }
+        Window::None => single_sided(values, sample_rate_hz, n as f64),
+    }
+}
+
+/// The detrended, Hann-windowed single-sided amplitude spectrum of `values` sampled at
+/// `sample_rate_hz` (see the module's model); empty for fewer than 4 samples.
+#[must_use]
+pub fn windowed_spectrum(values: &[f64], sample_rate_hz: f64) -> Spectrum {
+    spectrum_with(values, sample_rate_hz, SpectrumMethod::default())
 }
 
 /// The median of the amplitudes at frequencies strictly above `above_hz`, `None` when there
@@ -127,6 +185,22 @@ mod tests {
         let peak = s.amplitude[40].max(s.amplitude[41]);
         let expected = 8.0 / (3.0 * std::f64::consts::PI);
         assert!((peak - expected).abs() < 2e-3, "{peak} against {expected}");
+    }
+
+    #[test]
+    fn the_plain_method_is_the_plain_fft() {
+        // No window, no detrend: the unwindowed amplitude spectrum, bin for bin.
+        let x = line_plus_cosine(128, 50.0, 10.3, 1.5);
+        let plain = spectrum_with(
+            &x,
+            50.0,
+            SpectrumMethod {
+                window: Window::None,
+                detrend: false,
+            },
+        );
+        let reference = crate::smooth::spectrum::amplitude_spectrum(&x, 50.0);
+        assert_eq!(plain, reference);
     }
 
     #[test]
