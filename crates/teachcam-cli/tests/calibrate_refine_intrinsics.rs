@@ -110,12 +110,14 @@ fn calibrate_refine_recovers_a_perturbed_focal_length_principal_point_and_k1() {
             ("cy ", f.intrinsics.cy, t.intrinsics.cy),
             ("k1 ", f.distortion.to_opencv()[0], truth_k1),
         ];
+        // The freed ones, before "; held as given".
+        let freed = line.split("; held").next().unwrap();
         for (name, value, truth) in checks {
-            let Some(at) = line.find(&format!(" {name}")) else {
+            let Some(at) = freed.find(&format!(" {name}")) else {
                 eprintln!("{}: {name}held", f.name);
                 continue;
             };
-            let std = number_after(&line[at..], "± ");
+            let std = number_after(&freed[at..], "± ");
             eprintln!(
                 "{}: {name}{value:.4} (truth {truth:.4}, σ {std:.4})",
                 f.name
