@@ -21,6 +21,7 @@ pub mod chessboard;
 pub mod intrinsics;
 pub mod lm;
 pub mod refine;
+pub mod refine_intrinsics;
 pub mod rig;
 pub mod wand;
 pub mod zhang;

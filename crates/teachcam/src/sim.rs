@@ -439,7 +439,7 @@ pub fn build_scene(scenario: Scenario, seed: u64) -> Scene {
 }
 
 /// The true poses of the first `frames` frames of a scene's motion.
-pub(crate) fn truth(scene: &Scene, frames: usize) -> Trajectory {
+pub fn truth(scene: &Scene, frames: usize) -> Trajectory {
     let tool = &scene.tool;
     let samples = (0..frames)
         .map(|f| {

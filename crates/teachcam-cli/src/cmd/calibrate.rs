@@ -586,6 +586,12 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
         .context("rig calibration")
         .rejected()?;
     print_rig_result(&result);
+    if let Some(view) = &args.world {
+        println!("{}", world_in_words(&board, view));
+    }
+    if let Some(hint) = transposed_inner_hint(&board, &observations) {
+        println!("{hint}");
+    }
     if !result.converged {
         println!("warning: the bundle adjustment stopped at its iteration limit, not at a minimum");
     }
@@ -595,6 +601,43 @@ fn run_rig(args: &RigArgs) -> anyhow::Result<()> {
         &format!("{} cameras", result.rig.cameras.len()),
     );
     Ok(())
+}
+
+/// The world frame a `--world` view sets, in words (CONTRACT: the work surface's xy-plane,
+/// z into it).
+fn world_in_words(board: &Chessboard, view: &str) -> String {
+    format!(
+        "world frame: the board of view '{view}': origin at its first inner corner, x along its rows of {} corners (--inner's first number), y along its columns of {} corners, z = x × y into the board (away from the cameras that see it)",
+        board.inner_cols, board.inner_rows
+    )
+}
+
+/// A warning when `--inner` looks transposed: its first number (corners per row, the world's
+/// x) is the smaller, and in three quarters or more of the photographs (three at least) those
+/// rows run closer to the image's vertical than its horizontal, i.e. the board was
+/// photographed with its longer side across while it was described with the shorter one
+/// first. The corners are found either way, with the same RMS; only the world's axes and
+/// origin change, so a word is all that can be said.
+fn transposed_inner_hint(board: &Chessboard, observations: &[RigObservation]) -> Option<String> {
+    let (cols, rows) = (board.inner_cols, board.inner_rows);
+    if cols >= rows || observations.len() < 3 {
+        return None;
+    }
+    let upright = observations
+        .iter()
+        .filter(|o| {
+            let (Some(first), Some(last)) = (o.corners.first(), o.corners.get(cols - 1)) else {
+                return false;
+            };
+            (last.y - first.y).abs() > (last.x - first.x).abs()
+        })
+        .count();
+    (4 * upright >= 3 * observations.len()).then(|| {
+        format!(
+            "warning: --inner {cols}x{rows}: in {upright} of {} photographs the board's rows of {cols} corners run up and down the image and its columns of {rows} across: a {rows}x{cols} board given transposed? The world's x runs along --inner's first number and its origin is the first inner corner of that order; give --inner {rows}x{cols} if the rows of {rows} corners were meant",
+            observations.len()
+        )
+    })
 }
 
 /// Per camera: residual, views, σ of centre, rotation and principal point; then what the σ

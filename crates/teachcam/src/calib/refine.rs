@@ -29,6 +29,10 @@ use nalgebra::{Isometry3, SMatrix, SVector, Vector2, Vector3};
 use super::bundle::{AdjustError, Body, BundleState, GateConfig, View, adjust_gated};
 use super::intrinsics::{CameraParams, params_of, point_d_pose};
 use super::lm::LmConfig;
+use super::refine_intrinsics::{
+    CameraIntrinsicsFit, Intrinsic, IntrinsicsRefineConfig, Observed, held_out_rigidity,
+    refine_intrinsics,
+};
 use crate::camera::{Rig, epipolar_line, fundamental_matrix, pixel_difference};
 use crate::correspond::Views;
 use crate::geometry::{CameraId, Pixel, Point3, Pose, rotation_angle_between};
@@ -93,6 +97,15 @@ pub struct RefineConfig {
     pub offset_agreement_px: f64,
     /// The adjustment's optimiser.
     pub lm: LmConfig,
+    /// Intrinsics to refine per camera where the footage determines them
+    /// ([`super::refine_intrinsics`]): focal length, principal point, k1; empty: extrinsics only.
+    pub intrinsics: Vec<Intrinsic>,
+    /// Also try `k2`, kept only where it makes the tool more rigid on the held-out frames.
+    pub try_k2: bool,
+    /// Every this many confident frames one is held out to judge the candidate rigs: 5.
+    pub hold_out_every: usize,
+    /// Options of the intrinsics' adjustment.
+    pub intrinsics_config: IntrinsicsRefineConfig,
 }
 
 impl Default for RefineConfig {
@@ -110,6 +123,15 @@ impl Default for RefineConfig {
             max_offset_fraction: 0.05,
             offset_agreement_px: 3.0,
             lm: LmConfig::default(),
+            intrinsics: vec![
+                Intrinsic::Focal,
+                Intrinsic::Cx,
+                Intrinsic::Cy,
+                Intrinsic::K1,
+            ],
+            try_k2: true,
+            hold_out_every: 5,
+            intrinsics_config: IntrinsicsRefineConfig::default(),
         }
     }
 }
@@ -270,6 +292,23 @@ pub struct Refinement {
     pub residual_gate_px: f64,
     /// False when the last adjustment stopped at its iteration limit.
     pub converged: bool,
+    /// Per camera, the chosen adjustment's intrinsics (freed with σ, held with why); empty
+    /// when the input rig was kept.
+    pub intrinsics: Vec<CameraIntrinsicsFit>,
+    /// The tool's markers as the chosen adjustment fitted them (scale kept).
+    pub markers_in_tool: Vec<Point3>,
+    /// Each candidate's rigidity on the held-out frames (pooled std of the marker distances,
+    /// mm; `None` when not measurable) by name: "extrinsics", "intrinsics", "intrinsics + k2".
+    pub held_out: Vec<(String, Option<f64>)>,
+    /// The input rig's rigidity on the same frames.
+    pub input_rigidity_mm: Option<f64>,
+    /// Confident frames held out.
+    pub held_out_frames: usize,
+    /// The candidate with the most rigid tool on the held-out frames.
+    pub chosen: String,
+    /// True when that candidate was not better there than the input rig, which is written
+    /// unchanged.
+    pub kept_input: bool,
 }
 
 /// Gives each camera missing from a confident frame its blobs back (`blobs`: the frame's
@@ -545,36 +584,38 @@ pub fn refine_rig(
                 && (a.center_in_world() - b.center_in_world()).norm() <= config.settled_mm
         });
         current = moved;
-        last = Some((adjusted, frames));
+        last = Some(frames);
         if settled {
             break;
         }
     }
-    let (Some((adjusted, frames)), Some(held)) = (last, held) else {
+    let (Some(frames), Some(held)) = (last, held) else {
         return Err(RefineError::TooFewFrames {
             found: 0,
             needed: config.min_frames,
         });
     };
-    let fits = adjusted.camera_fits(&body, &params);
+    let judged = judge_candidates(rig, &current, tool, &frames, held, config)?;
+    let chosen = &judged.candidates[judged.chosen];
+    let written = if judged.kept_input { rig } else { &chosen.rig };
     let cameras = rig
         .cameras
         .iter()
-        .zip(&current.cameras)
-        .zip(fits)
-        .zip(&adjusted.dropped_per_camera)
-        .map(|(((before, after), fit), dropped)| RefinedCamera {
+        .zip(&written.cameras)
+        .zip(&chosen.fits)
+        .map(|((before, after), fit)| RefinedCamera {
             name: before.name.clone(),
             moved_mm: (before.center_in_world() - after.center_in_world()).norm(),
             turned_deg: rotation_angle_between(&before.camera_from_world, &after.camera_from_world)
                 .to_degrees(),
             frames: fit.frames,
-            dropped: *dropped,
+            dropped: fit.dropped,
             rms_px: fit.rms_px,
-            rotation_std_deg: fit.std.rotation_deg,
-            centre_std_mm: fit.std.centre_mm,
+            rotation_std_deg: fit.rotation_std_deg,
+            centre_std_mm: fit.centre_std_mm,
         })
         .collect();
+    let current = written.clone();
     let before = pair_medians(rig, &frames);
     let after = pair_medians(&current, &frames);
     let pairs = before
@@ -593,9 +634,135 @@ pub fn refine_rig(
         cameras,
         pairs,
         confident_per_round,
-        frames_used: adjusted.frames.len(),
-        frames_rejected: adjusted.frames_before - adjusted.frames.len(),
-        residual_gate_px: adjusted.gate_px,
-        converged: adjusted.report.converged,
+        frames_used: chosen.frames_used,
+        frames_rejected: judged.training_frames - chosen.frames_used,
+        residual_gate_px: chosen.gate_px,
+        converged: chosen.converged,
+        intrinsics: if judged.kept_input {
+            Vec::new()
+        } else {
+            chosen.fits.clone()
+        },
+        markers_in_tool: if judged.kept_input {
+            tool.markers_in_tool.clone()
+        } else {
+            chosen.markers_in_tool.clone()
+        },
+        held_out: judged
+            .candidates
+            .iter()
+            .map(|c| (c.name.clone(), c.rigidity_mm))
+            .collect(),
+        input_rigidity_mm: judged.input_rigidity_mm,
+        held_out_frames: judged.held_out_frames,
+        chosen: judged.candidates[judged.chosen].name.clone(),
+        kept_input: judged.kept_input,
+    })
+}
+
+/// A candidate rig fitted on the training frames and judged on the held-out ones.
+struct Candidate {
+    name: String,
+    rig: Rig,
+    fits: Vec<CameraIntrinsicsFit>,
+    markers_in_tool: Vec<Point3>,
+    frames_used: usize,
+    gate_px: f64,
+    converged: bool,
+    rigidity_mm: Option<f64>,
+}
+
+/// The candidates and the choice among them.
+struct Judged {
+    candidates: Vec<Candidate>,
+    chosen: usize,
+    kept_input: bool,
+    input_rigidity_mm: Option<f64>,
+    held_out_frames: usize,
+    training_frames: usize,
+}
+
+/// Fits the candidate rigs (extrinsics only; with the determined intrinsics and the tool's
+/// shape; with `k2` too) from `current` on every confident frame but every
+/// [`RefineConfig::hold_out_every`]-th, measures the tool's rigidity through each and through
+/// `input` on the frames held out, and chooses the most rigid; when that is not more rigid
+/// than `input`, the input is kept.
+fn judge_candidates(
+    input: &Rig,
+    current: &Rig,
+    tool: &Tool,
+    frames: &[ConfidentFrame],
+    held: CameraId,
+    config: &RefineConfig,
+) -> Result<Judged, RefineError> {
+    let every = config.hold_out_every.max(2);
+    let (mut training, mut held_out) = (Vec::new(), Vec::new());
+    for (i, f) in frames.iter().enumerate() {
+        let observed = Observed {
+            world_from_tool: f.world_from_tool,
+            views: f.views.clone(),
+        };
+        if i % every == every - 1 {
+            held_out.push(observed);
+        } else {
+            training.push(observed);
+        }
+    }
+    let mut models: Vec<(&str, Vec<Intrinsic>, bool)> = vec![("extrinsics", Vec::new(), false)];
+    if !config.intrinsics.is_empty() {
+        models.push(("intrinsics", config.intrinsics.clone(), true));
+        if config.try_k2 && !config.intrinsics.contains(&Intrinsic::K2) {
+            let mut with_k2 = config.intrinsics.clone();
+            with_k2.push(Intrinsic::K2);
+            models.push(("intrinsics + k2", with_k2, true));
+        }
+    }
+    let mut candidates = Vec::new();
+    for (name, free, shape) in models {
+        let fitted = refine_intrinsics(
+            current,
+            &tool.markers_in_tool,
+            &training,
+            held,
+            &free,
+            shape,
+            &config.intrinsics_config,
+        );
+        let fitted = match fitted {
+            Ok(f) => f,
+            // The extrinsics alone must fit: the rounds just did on these frames.
+            Err(e) if candidates.is_empty() => {
+                return Err(RefineError::Bundle {
+                    message: e.to_string(),
+                });
+            }
+            Err(_) => continue,
+        };
+        let rigidity_mm = held_out_rigidity(&fitted.rig, &held_out);
+        candidates.push(Candidate {
+            name: name.to_owned(),
+            rigidity_mm,
+            rig: fitted.rig,
+            fits: fitted.cameras,
+            markers_in_tool: fitted.markers_in_tool,
+            frames_used: fitted.frames_used,
+            gate_px: fitted.gate_px,
+            converged: fitted.converged,
+        });
+    }
+    let rigidity = |c: &Candidate| c.rigidity_mm.unwrap_or(f64::INFINITY);
+    let chosen = (0..candidates.len())
+        .min_by(|a, b| rigidity(&candidates[*a]).total_cmp(&rigidity(&candidates[*b])))
+        .unwrap_or(0);
+    let input_rigidity_mm = held_out_rigidity(input, &held_out);
+    let kept_input = input_rigidity_mm
+        .is_some_and(|input| candidates.get(chosen).is_none_or(|c| rigidity(c) > input));
+    Ok(Judged {
+        candidates,
+        chosen,
+        kept_input,
+        input_rigidity_mm,
+        held_out_frames: held_out.len(),
+        training_frames: training.len(),
     })
 }

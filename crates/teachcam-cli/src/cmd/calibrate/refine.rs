@@ -49,6 +49,12 @@ pub struct RefineArgs {
     /// Hold this camera fixed (default: the one that agrees best with the others).
     #[arg(long)]
     pub hold: Option<String>,
+    /// Refine the extrinsics only (intrinsics held as given, the tool's shape exact).
+    #[arg(long)]
+    pub extrinsics_only: bool,
+    /// Also write the tool with its marker geometry as refined (the input's scale).
+    #[arg(long)]
+    pub tool_out: Option<PathBuf>,
     /// Rounds of track → adjust at most (they stop earlier when nothing moves).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=10))]
     pub rounds: u32,
@@ -68,14 +74,19 @@ const WIDE_RESIDUAL_PX: f64 = 12.0;
 
 /// Run `calibrate refine`.
 pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
-    check_outputs(
-        &[Output {
-            path: &args.output,
-            format: "a rig file (JSON)",
+    let mut outputs = vec![Output {
+        path: &args.output,
+        format: "a rig file (JSON)",
+        extensions: &["json"],
+    }];
+    if let Some(tool_out) = &args.tool_out {
+        outputs.push(Output {
+            path: tool_out,
+            format: "a tool file (JSON)",
             extensions: &["json"],
-        }],
-        &[&args.rig, &args.tool],
-    )?;
+        });
+    }
+    check_outputs(&outputs, &[&args.rig, &args.tool])?;
     let rig = crate::load::rig(&args.rig)?;
     let tool = crate::load::tool(&args.tool)?;
     if rig.len() < 2 {
@@ -125,6 +136,11 @@ pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
     let config = RefineConfig {
         hold,
         max_rounds: args.rounds as usize,
+        intrinsics: if args.extrinsics_only {
+            Vec::new()
+        } else {
+            RefineConfig::default().intrinsics
+        },
         ..RefineConfig::default()
     };
     let rounds = Rounds {
@@ -148,11 +164,22 @@ pub fn run_refine(args: &RefineArgs) -> anyhow::Result<()> {
             rotation_std_deg: c.rotation_std_deg,
         })
         .collect();
-    write_rig_with_std(&args.output, &result.rig, &std)?;
-    crate::announce::wrote(
-        std::slice::from_ref(&args.output),
-        &format!("{} cameras", result.rig.cameras.len()),
-    );
+    let mut written = vec![args.output.clone()];
+    let refined_tool = args.tool_out.as_ref().map(|path| {
+        let mut refined = tool.clone();
+        refined.markers_in_tool.clone_from(&result.markers_in_tool);
+        (path, refined)
+    });
+    if let Some((path, refined)) = &refined_tool {
+        // Render the tool first so that an invalid one leaves no rig behind either.
+        let text = teachcam::io::tool::tool_json(path, refined)?;
+        write_rig_with_std(&args.output, &result.rig, &std)?;
+        std::fs::write(path, text).with_context(|| format!("{}: write", path.display()))?;
+        written.push((*path).clone());
+    } else {
+        write_rig_with_std(&args.output, &result.rig, &std)?;
+    }
+    crate::announce::wrote(&written, &format!("{} cameras", result.rig.cameras.len()));
     Ok(())
 }
 
@@ -223,7 +250,7 @@ fn print_result(result: &Refinement) {
     );
     for c in &result.cameras {
         println!(
-            "{}: moved {:.3} mm, turned {:.4}°; {} frames ({} dropped), rms {:.3} px, centre ± {:.4} mm, rotation ± {:.5}° (intrinsics taken as exact)",
+            "{}: moved {:.3} mm, turned {:.4}°; {} frames ({} dropped), rms {:.3} px, centre ± {:.4} mm, rotation ± {:.5}°",
             c.name,
             c.moved_mm,
             c.turned_deg,
@@ -238,6 +265,59 @@ fn print_result(result: &Refinement) {
         println!(
             "epipolar {}-{}: median {:.3} px before, {:.3} px after ({} marker images)",
             p.a, p.b, p.before_px, p.after_px, p.count
+        );
+    }
+    for (camera, fit) in result.rig.cameras.iter().zip(&result.intrinsics) {
+        let free: Vec<String> = fit
+            .free
+            .iter()
+            .map(|(p, value, std)| format!("{} {value:.4} ± {std:.4}", p.name()))
+            .collect();
+        let held: Vec<String> = fit
+            .held
+            .iter()
+            .map(|(p, effect)| format!("{} (1σ would move the image {effect:.2} px)", p.name()))
+            .collect();
+        println!(
+            "{}: intrinsics refined: {}; held as given, not determined by this footage: {}",
+            camera.name,
+            if free.is_empty() {
+                "none".to_owned()
+            } else {
+                free.join(", ")
+            },
+            if held.is_empty() {
+                "none".to_owned()
+            } else {
+                held.join(", ")
+            }
+        );
+    }
+    let judged: Vec<String> = result
+        .held_out
+        .iter()
+        .map(|(name, rigidity)| match rigidity {
+            Some(mm) => format!("{name} {mm:.3} mm"),
+            None => format!("{name} not measurable"),
+        })
+        .collect();
+    let input = result
+        .input_rigidity_mm
+        .map_or_else(|| "not measurable".to_owned(), |mm| format!("{mm:.3} mm"));
+    println!(
+        "held-out frames ({}): tool rigidity (std of the marker distances) through the input rig {input}; {}",
+        result.held_out_frames,
+        judged.join(", ")
+    );
+    if result.kept_input {
+        println!(
+            "note: no refinement made the tool more rigid on the held-out frames than the input rig ({} was best): the input rig is written unchanged",
+            result.chosen
+        );
+    } else {
+        println!(
+            "written: {} (the most rigid tool on the held-out frames)",
+            result.chosen
         );
     }
     if !result.converged {
