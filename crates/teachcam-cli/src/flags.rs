@@ -134,6 +134,20 @@ pub fn point(text: &str) -> Result<[f64; 3], String> {
         .map_err(|v| format!("'{text}' has {} numbers, expected x,y,z", v.len()))
 }
 
+/// Six joint angles `j1,...,j6`, degrees.
+pub fn joints(text: &str) -> Result<[f64; 6], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| number(v.trim()))
+        .collect::<Result<_, _>>()?;
+    <[f64; 6]>::try_from(values).map_err(|v| {
+        format!(
+            "'{text}' has {} numbers, expected six joint angles j1,...,j6 in degrees",
+            v.len()
+        )
+    })
+}
+
 /// A pose `x,y,z,qw,qx,qy,qz` (millimetres, unit quaternion), checked and kept as the text.
 pub fn pose(text: &str) -> Result<String, String> {
     teachcam::geometry::parse_pose(text)

@@ -99,10 +99,7 @@ fn too_far_is_reported_frame_by_frame_with_exit_status_1() {
     ]);
     assert_eq!(out.status.code(), Some(1));
     let stdout = text(&out.stdout);
-    assert!(
-        stdout.contains("frame 0 (t = 0.000 s): out of reach"),
-        "{stdout}"
-    );
+    assert!(stdout.contains("frames 0-119: out of reach"), "{stdout}");
     assert!(text(&out.stderr).contains("stroke.csv"));
     // The suggestion is a --wobj to paste, and pasted it passes.
     let wobj = stdout

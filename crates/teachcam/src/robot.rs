@@ -11,12 +11,14 @@
 //! ```
 //! Stages, in the order data flows: [`frames`] (vision↔robot alignment, pivot calibration),
 //! [`kinematics`] (IRB 120 forward and inverse), [`check`] (reach, limits, speeds,
-//! singularities), [`simplify`] (fewer targets within a path tolerance), [`program`] (moves
+//! singularities), [`gaps`] (runs of frames without a pose a straight move would cross),
+//! [`simplify`] (fewer targets within a path tolerance), [`program`] (moves
 //! with speeds from the recorded timing), then the dialects [`rapid`], [`krl`], [`urscript`]
 //! and [`table`] (CSV).
 
 pub mod check;
 pub mod frames;
+pub mod gaps;
 pub mod kinematics;
 pub mod krl;
 pub mod program;

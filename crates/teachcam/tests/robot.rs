@@ -338,7 +338,8 @@ fn too_far_stroke_is_reported_frame_by_frame_with_a_verified_move() {
             f.issues
         );
     }
-    let Some(Suggestion::UseWorkObject { base_from_wobj }) = report.suggestions.first().copied()
+    let Some(Suggestion::UseWorkObject { base_from_wobj, .. }) =
+        report.suggestions.first().copied()
     else {
         panic!("no work-object suggestion: {:?}", report.suggestions);
     };
@@ -968,7 +969,7 @@ fn a_world_upside_down_gets_a_verified_work_object() {
         let report = check_path(&model, &cell, &targets, &CheckConfig::default());
         assert!(report.unreachable_count() > 0, "{}", model.name);
         let fixed = match report.suggestions.first().copied() {
-            Some(Suggestion::UseWorkObject { base_from_wobj }) => Cell {
+            Some(Suggestion::UseWorkObject { base_from_wobj, .. }) => Cell {
                 base_from_wobj,
                 ..cell
             },

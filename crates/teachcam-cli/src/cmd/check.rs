@@ -7,7 +7,8 @@ use anyhow::{Context, bail};
 use nalgebra::UnitQuaternion;
 use teachcam::geometry::Pose;
 use teachcam::io::trajectory::read_trajectory;
-use teachcam::robot::check::{CheckConfig, CheckReport, FrameIssue, check_path};
+use teachcam::robot::check::{CheckConfig, CheckReport, check_path, issue_ranges};
+use teachcam::robot::gaps::{Gap, GapConfig, find_gaps};
 use teachcam::robot::kinematics::Robot;
 use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
 use teachcam::robot::table::joints_csv;
@@ -19,7 +20,8 @@ use crate::Rejected;
 ///
 /// Every frame must be reachable with the joints inside their ranges and the joint
 /// speeds within the data sheet's at the recorded timing, no configuration change; frames near
-/// the wrist singularity are reported as warnings. Prints a summary, every failing frame and
+/// the wrist singularity are reported as warnings. Prints a summary, the failing frames as runs
+/// ("frames 12-40: axis 1 too fast, up to 325°/s of 225°/s") and
 /// suggestions (slow down by a factor, a verified `--wobj` to paste); exits with status 1 when the
 /// program would fail on the robot.
 ///
@@ -45,6 +47,12 @@ pub struct Args {
     pub trajectory: PathBuf,
     #[command(flatten)]
     pub cell: CellArgs,
+    /// Path tolerance, millimetres (as export's): a gap in the data whose straight crossing
+    /// would leave the smoothest path by more is named and fails the check.
+    #[arg(long, default_value_t = 0.5, value_parser = crate::flags::positive)]
+    pub tolerance_mm: f64,
+    #[command(flatten)]
+    pub gaps: GapArgs,
     /// Write the chosen joint angles of every frame here (degrees, the maker's convention; then
     /// the maker's configuration: ABB cf1,cf4,cf6,cfx; KUKA s,t; UR configuration 0-7).
     #[arg(long)]
@@ -68,8 +76,10 @@ pub struct CellArgs {
     /// orientation).
     #[arg(long)]
     pub tool: Option<PathBuf>,
-    /// Fraction of each axis's maximum speed the path may use (0 < f <= 1).
-    #[arg(long, default_value_t = 1.0, value_parser = crate::flags::fraction)]
+    /// Fraction of each axis's maximum speed the path may use (0 < f <= 1): the time scale
+    /// keeps every joint under this share of its data-sheet speed, a margin for the
+    /// controller's blending and ramps.
+    #[arg(long, default_value_t = teachcam::robot::check::DEFAULT_SPEED_FRACTION, value_parser = crate::flags::fraction)]
     pub speed_fraction: f64,
     /// How the demonstration's timing is played: auto slows the whole path by the smallest
     /// factor that keeps every joint within its limits (printed and written in the program);
@@ -84,6 +94,64 @@ pub struct CellArgs {
     /// Use the poses `track` flagged `outlier` (default: treat them as gaps).
     #[arg(long)]
     pub keep_outliers: bool,
+}
+
+/// How `check` and `export` treat gaps in the data (frames lost, or outliers dropped).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct GapArgs {
+    /// Cross gaps too long for the path tolerance with straight moves anyway (export names
+    /// each in the program where it is); without it, such a gap fails check and export.
+    #[arg(long)]
+    pub bridge_gaps: bool,
+    /// Bridge every gap up to this long, seconds, whatever its shape (default: a gap is
+    /// bridged when the smoothest path across it, from the speeds on either side, stays
+    /// within the path tolerance of a straight move).
+    #[arg(long, value_parser = crate::flags::non_negative)]
+    pub max_gap_s: Option<f64>,
+}
+
+impl GapArgs {
+    /// The gaps of the targets, judged at `tolerance_mm`; the lines naming those too long to
+    /// bridge (as warnings when `--bridge-gaps`); `Err` with one line when such a gap is not
+    /// to be bridged.
+    pub fn judge(
+        &self,
+        targets: &[TcpTarget],
+        tolerance_mm: f64,
+    ) -> (Vec<Gap>, String, Option<String>) {
+        use std::fmt::Write as _;
+        let gaps = find_gaps(
+            targets,
+            &GapConfig {
+                tolerance_mm,
+                max_gap_s: self.max_gap_s,
+            },
+        );
+        let too_long: Vec<&Gap> = gaps.iter().filter(|g| !g.bridgeable).collect();
+        let criterion = match self.max_gap_s {
+            Some(s) => format!("longer than --max-gap-s {s}"),
+            None => format!("beyond the path tolerance of {tolerance_mm} mm"),
+        };
+        let mut lines = String::new();
+        let what = if self.bridge_gaps {
+            "warning: gap bridged by a straight move"
+        } else {
+            "  gap"
+        };
+        for gap in &too_long {
+            let _ = writeln!(lines, "{what}: {gap}");
+        }
+        let refusal = (!too_long.is_empty() && !self.bridge_gaps).then(|| {
+            format!(
+                "{} gap{} in the data {criterion} (first: frames {}-{}); a straight move across would not follow the demonstration (--bridge-gaps crosses them anyway, or --max-gap-s S)",
+                too_long.len(),
+                if too_long.len() == 1 { "" } else { "s" },
+                too_long[0].after.0 + 1,
+                too_long[0].before.0 - 1
+            )
+        });
+        (gaps, lines, refusal)
+    }
 }
 
 /// Everything `check` and `export` need, resolved from the arguments and files.
@@ -178,7 +246,7 @@ fn args_path(frames: usize) -> String {
     format!("trajectory of {frames} frames")
 }
 
-/// The summary lines of a check: counts, every failing frame, suggestions.
+/// The summary lines of a check: counts, the issues as runs of frames, suggestions.
 pub fn summary(report: &CheckReport, gaps: usize, robot: &str) -> String {
     use std::fmt::Write as _;
     let mut out = String::new();
@@ -220,37 +288,14 @@ pub fn summary(report: &CheckReport, gaps: usize, robot: &str) -> String {
             "peak joint speeds: none measured (no two consecutive frames have joints)"
         );
     }
-    let singular: Vec<String> = report
-        .frames
-        .iter()
-        .filter(|f| {
-            f.issues
-                .iter()
-                .any(|i| matches!(i, FrameIssue::NearSingular { .. }))
-        })
-        .map(|f| f.target.frame.0.to_string())
-        .collect();
-    if !singular.is_empty() {
-        let _ = writeln!(
-            out,
-            "warning: near the wrist singularity at frames {}",
-            singular.join(", ")
-        );
+    // Runs of frames with the same issue, one line each (a long take out of reach is one
+    // line, not one a frame); warnings first.
+    let ranges = issue_ranges(report);
+    for r in ranges.iter().filter(|r| !r.is_failure()) {
+        let _ = writeln!(out, "warning: {r}");
     }
-    for f in &failing {
-        let issues: Vec<String> = f
-            .issues
-            .iter()
-            .filter(|i| i.is_failure())
-            .map(ToString::to_string)
-            .collect();
-        let _ = writeln!(
-            out,
-            "  frame {} (t = {:.3} s): {}",
-            f.target.frame.0,
-            f.target.time_s,
-            issues.join("; ")
-        );
+    for r in ranges.iter().filter(|r| r.is_failure()) {
+        let _ = writeln!(out, "  {r}");
     }
     for s in &report.suggestions {
         let _ = writeln!(out, "suggestion: {s}");
@@ -281,17 +326,33 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
     }
     print!("{}", summary(&report, resolved.gaps, &resolved.robot.name));
+    let (_, gap_lines, gap_refusal) = args.gaps.judge(&resolved.targets, args.tolerance_mm);
+    print!("{gap_lines}");
+    if let Some(refusal) = gap_refusal {
+        return Err(anyhow::anyhow!("{}: {refusal}", args.trajectory.display())).rejected();
+    }
     if report.passes() {
         println!("ok: the robot can run this trajectory");
         Ok(())
     } else {
         Err(anyhow::anyhow!(
-            "{}: {} of {} frames fail on the {}",
+            "{}: {}",
             args.trajectory.display(),
-            report.failing().count(),
-            report.frames.len(),
-            resolved.robot.name
+            failure_line(&report)
         ))
         .rejected()
     }
+}
+
+/// Why a failing check fails, in one line: a given time scale too fast for the arm names the
+/// axis, the frame and the factor that would fit; otherwise the count of failing frames.
+pub fn failure_line(report: &CheckReport) -> String {
+    report.time_scale_refusal().unwrap_or_else(|| {
+        format!(
+            "{} of {} frames fail on the {}",
+            report.failing().count(),
+            report.frames.len(),
+            report.robot.name
+        )
+    })
 }

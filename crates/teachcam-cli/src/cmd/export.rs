@@ -4,15 +4,15 @@ use std::path::PathBuf;
 
 use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::robot::check::{CheckReport, check_path};
-use teachcam::robot::kinematics::Maker;
+use teachcam::robot::kinematics::{Joints, Maker};
 use teachcam::robot::krl::{krl_name_problem, krl_program};
-use teachcam::robot::program::{ToolLoad, build_program};
+use teachcam::robot::program::{ToolLoad, build_program, check_home};
 use teachcam::robot::rapid::{RapidConfig, rapid_module};
 use teachcam::robot::simplify::SimplifyConfig;
 use teachcam::robot::table::poses_csv;
 use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
 
-use super::check::{CellArgs, resolve, summary};
+use super::check::{CellArgs, GapArgs, resolve, summary};
 use crate::Rejected;
 
 /// The program dialects.
@@ -58,6 +58,8 @@ pub struct Args {
     pub trajectory: PathBuf,
     #[command(flatten)]
     pub cell: CellArgs,
+    #[command(flatten)]
+    pub gaps: GapArgs,
     /// Output file (for krl, the .src; the .dat is written beside it).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -72,6 +74,11 @@ pub struct Args {
     /// paint at 50 mm/s, the same off it at the end; 0 for none.
     #[arg(long, default_value_t = 50.0, value_parser = crate::flags::non_negative)]
     pub approach: f64,
+    /// Home joints "j1,...,j6" (degrees, the maker's convention: ABB jointtarget, KUKA A1-A6,
+    /// UR movej): a joint move there first and last (RAPID MoveAbsJ, KRL PTP {A1 ...}, URScript
+    /// movej). Each must be inside the robot's range.
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::joints)]
+    pub home: Option<[f64; 6]>,
     /// Program name (default: the output file's name; KRL: must be the file's name).
     #[arg(long)]
     pub name: Option<String>,
@@ -102,7 +109,7 @@ pub struct Written {
 /// when the check fails.
 #[expect(
     clippy::print_stdout,
-    reason = "a failing check's summary is part of the output"
+    reason = "a failing check's summary and the gaps are part of the output"
 )]
 pub fn write_program(args: &Args) -> anyhow::Result<Written> {
     if !(args.tolerance_mm > 0.0 && args.tolerance_deg > 0.0) {
@@ -161,7 +168,25 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
             robot.maker.label()
         );
     }
+    let home = args.home.map(|h| Joints(h.map(f64::to_radians)));
+    if let Some(home) = &home {
+        check_home(&robot, home).map_err(|e| {
+            anyhow::anyhow!(
+                "--home {}: {e}",
+                joints_text(&args.home.unwrap_or_default())
+            )
+        })?;
+    }
     let resolved = resolve(&args.trajectory, &args.cell)?;
+    let (gaps, gap_lines, gap_refusal) = args.gaps.judge(&resolved.targets, args.tolerance_mm);
+    print!("{gap_lines}");
+    if let Some(refusal) = gap_refusal {
+        return Err(anyhow::anyhow!(
+            "{}: {refusal}; no program written",
+            args.trajectory.display()
+        ))
+        .rejected();
+    }
     let report = check_path(
         &resolved.robot,
         &resolved.cell,
@@ -172,11 +197,9 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         print!("{}", summary(&report, resolved.gaps, &resolved.robot.name));
         if !args.force {
             return Err(anyhow::anyhow!(
-                "{}: {} of {} frames fail on the {}; no program written (--force writes it anyway)",
+                "{}: {}; no program written (--force writes it anyway)",
                 args.trajectory.display(),
-                report.failing().count(),
-                report.frames.len(),
-                resolved.robot.name
+                super::check::failure_line(&report)
             ))
             .rejected();
         }
@@ -192,6 +215,8 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
             .map_err(|e| anyhow::anyhow!("--approach {}: {e}", args.approach))
             .rejected()?;
     }
+    program.home = home;
+    program.gaps = gaps.into_iter().filter(|g| !g.bridgeable).collect();
     if args.tool_mass.is_some() || args.tool_cog.is_some() {
         let assumed = ToolLoad::assumed(&resolved.cell);
         program.load = Some(ToolLoad {
@@ -223,6 +248,15 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         moves: program.moves.len(),
         report,
     })
+}
+
+/// "j1,...,j6" as given.
+fn joints_text(joints: &[f64; 6]) -> String {
+    joints
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 impl Dialect {

@@ -11,7 +11,7 @@ use axum::response::{IntoResponse, Response};
 use serde_json::{Value, json};
 use teachcam::geometry::{Pose, parse_pose};
 use teachcam::report::smooth_for_review;
-use teachcam::robot::check::{CheckConfig, CheckReport, Suggestion, check_path};
+use teachcam::robot::check::{CheckConfig, CheckReport, Suggestion, check_path, issue_ranges};
 use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
 use teachcam::robot::kinematics::{Maker, Robot, link_points};
 use teachcam::robot::krl::{krl_name_problem, krl_program};
@@ -224,7 +224,7 @@ pub async fn robot(
         .suggestions
         .iter()
         .map(|s| match s {
-            Suggestion::UseWorkObject { base_from_wobj } => {
+            Suggestion::UseWorkObject { base_from_wobj, .. } => {
                 json!({"text": s.to_string(), "wobj": pose_text(base_from_wobj)})
             }
             Suggestion::SlowDown { factor } => json!({"text": s.to_string(), "slow_down": factor}),
@@ -261,6 +261,7 @@ pub async fn robot(
         "unreachable": report.unreachable_count(),
         "failing": report.failing().count(),
         "near_singular": report.near_singular_count(),
+        "issue_ranges": issue_ranges(report).iter().map(|r| json!({"text": r.to_string(), "failure": r.is_failure()})).collect::<Vec<_>>(),
         "peak_speed_ratio": report.peak_speed_ratio,
         "limits": limits,
         "suggestions": suggestions,

@@ -25,8 +25,11 @@ pub struct CheckConfig {
     /// Default 5°: there, axes 4 and 6 turn by about `1 / sin q5` ≈ 11 times the TCP's
     /// angular rate, which is where ABB's path planner starts to slow down.
     pub wrist_singularity: f64,
-    /// Fraction of each axis's maximum speed a path may use. Default 1.0: the data sheet's
-    /// numbers; lower it to keep a margin for the controller's acceleration ramps.
+    /// Fraction of each axis's maximum speed a path may use. Default
+    /// [`DEFAULT_SPEED_FRACTION`] (0.9): a program replayed at the time scale chosen stays 10 %
+    /// under each joint's data-sheet speed, a margin for the controller's blending and
+    /// acceleration ramps (and for the joint path between kept targets, which differs from the
+    /// frames' by up to the path tolerance).
     pub speed_fraction: f64,
     /// Maximum joint accelerations, rad/s², axis 1 to 6; `None` reports accelerations without
     /// judging them. Default `None`: ABB publishes no joint acceleration limits (they depend on
@@ -61,6 +64,9 @@ pub struct Timing {
     pub limiting_axis: Option<usize>,
     /// True when the factor was chosen by [`TimeScale::Auto`].
     pub automatic: bool,
+    /// Under a given factor too fast for the arm, the factor [`TimeScale::Auto`] finds (one
+    /// that passes), for the refusal to name; `None` otherwise.
+    pub fits: Option<f64>,
 }
 
 impl Timing {
@@ -101,11 +107,14 @@ pub fn scale_time(targets: &[TcpTarget], factor: f64) -> Vec<TcpTarget> {
         .collect()
 }
 
+/// The default [`CheckConfig::speed_fraction`], shared by `check`, `export` and the studio.
+pub const DEFAULT_SPEED_FRACTION: f64 = 0.9;
+
 impl Default for CheckConfig {
     fn default() -> Self {
         Self {
             wrist_singularity: 5f64.to_radians(),
-            speed_fraction: 1.0,
+            speed_fraction: DEFAULT_SPEED_FRACTION,
             max_acceleration: None,
             max_work_object_move_reach: 1.0,
             time_scale: TimeScale::Auto,
@@ -258,14 +267,18 @@ pub enum Suggestion {
         /// Time scale, > 1.
         factor: f64,
     },
-    /// Use this work object instead, verified to make every target reachable within the
-    /// joint limits: the given one moved (the nearest translation that works), or, when no
+    /// Use this work object instead, verified by the whole check (reach, joint ranges,
+    /// speeds at a time scale of at most [`MAX_SUGGESTED_TIME_SCALE`], no configuration change,
+    /// no frame near the wrist singularity): the given one moved (the nearest translation that works), or, when no
     /// translation does, turned and placed in front of the arm (for a world whose z points
     /// into the table, as a rig calibrated from a chessboard lying on it has, or a stroke far
     /// from the arm).
     UseWorkObject {
         /// The work object in the robot's base frame, ready for `--wobj`.
         base_from_wobj: crate::geometry::Pose,
+        /// The time scale the check found with it (at most [`MAX_SUGGESTED_TIME_SCALE`]
+        /// under [`TimeScale::Auto`]).
+        time_scale: f64,
     },
 }
 
@@ -275,9 +288,12 @@ impl std::fmt::Display for Suggestion {
             Self::SlowDown { factor } => {
                 write!(f, "slow the trajectory down by a factor of {factor:.2}")
             }
-            Self::UseWorkObject { base_from_wobj } => write!(
+            Self::UseWorkObject {
+                base_from_wobj,
+                time_scale,
+            } => write!(
                 f,
-                "--wobj \"{}\" puts every frame in reach within the joint ranges (verified)",
+                "--wobj \"{}\" passes the whole check: every frame in reach within the joint ranges, the joints within their speeds at time scale {time_scale:.2}, none near the wrist singularity (verified)",
                 crate::robot::pose_text(base_from_wobj)
             ),
         }
@@ -315,6 +331,51 @@ impl CheckReport {
     /// The frames that fail.
     pub fn failing(&self) -> impl Iterator<Item = &FrameCheck> {
         self.frames.iter().filter(|f| !f.passes())
+    }
+
+    /// The frame and issue of the fastest joint over its limit (speed, or acceleration when
+    /// limits were given), `None` when every joint keeps within its limits.
+    #[must_use]
+    pub fn speed_failure(&self) -> Option<(&FrameCheck, FrameIssue)> {
+        let excess = |issue: &FrameIssue| match *issue {
+            FrameIssue::TooFast {
+                speed, max_speed, ..
+            } => Some(speed.abs() / max_speed),
+            FrameIssue::TooHighAcceleration {
+                acceleration,
+                max_acceleration,
+                ..
+            } => Some((acceleration.abs() / max_acceleration).sqrt()),
+            _ => None,
+        };
+        self.frames
+            .iter()
+            .flat_map(|f| {
+                f.issues
+                    .iter()
+                    .filter_map(move |i| Some((f, *i, excess(i)?)))
+            })
+            .max_by(|a, b| a.2.total_cmp(&b.2))
+            .map(|(f, i, _)| (f, i))
+    }
+
+    /// One line refusing a given time scale that is too fast for the arm, naming the axis,
+    /// the frame and the factor that would fit (`None` when the joints keep within their
+    /// limits, or under [`TimeScale::Auto`]).
+    #[must_use]
+    pub fn time_scale_refusal(&self) -> Option<String> {
+        if self.timing.automatic {
+            return None;
+        }
+        let (frame, issue) = self.speed_failure()?;
+        let fits = self.timing.fits.map_or_else(
+            || "no time scale up to the check's cap fits; auto says the nearest".to_string(),
+            |f| format!("--time-scale {f:.2} (or auto) fits"),
+        );
+        Some(format!(
+            "--time-scale {:.2}: frame {} (t = {:.3} s): {issue} on the {}; {fits}",
+            self.timing.factor, frame.target.frame.0, frame.target.time_s, self.robot.name
+        ))
     }
 
     /// Frames with no joint solution.
@@ -362,6 +423,18 @@ pub fn check_path(
     targets: &[TcpTarget],
     config: &CheckConfig,
 ) -> CheckReport {
+    let mut report = check_timed(robot, cell, targets, config);
+    report.suggestions = suggestions(robot, cell, targets, &report, config);
+    report
+}
+
+/// [`check_path`] without the suggestions (which run this again on each candidate).
+fn check_timed(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+) -> CheckReport {
     let recorded = check_at_timing(robot, cell, targets, config, 1.0);
     let limiting_axis = limiting_axis(robot, &recorded, config);
     let (mut report, factor) = match config.time_scale {
@@ -370,26 +443,46 @@ pub fn check_path(
             check_at_timing(robot, cell, &scale_time(targets, factor), config, factor),
             factor,
         ),
-        TimeScale::Auto => {
-            let mut report = recorded;
-            let mut factor = 1.0;
-            for _ in 0..4 {
-                let needed = needed_factor(&report);
-                if needed <= 1.0 {
-                    break;
-                }
-                factor = round_up(factor * needed);
-                report = check_at_timing(robot, cell, &scale_time(targets, factor), config, factor);
-            }
-            (report, factor)
+        TimeScale::Auto => auto_timing(robot, cell, targets, config, recorded),
+    };
+    let fits = match config.time_scale {
+        TimeScale::Fixed(_) if report.speed_failure().is_some() => {
+            let recorded = check_at_timing(robot, cell, targets, config, 1.0);
+            let (auto, fits) = auto_timing(robot, cell, targets, config, recorded);
+            auto.speed_failure().is_none().then_some(fits)
         }
+        _ => None,
     };
     report.timing = Timing {
         factor,
         limiting_axis,
         automatic: config.time_scale == TimeScale::Auto,
+        fits,
     };
     report
+}
+
+/// The report at the smallest factor within the limits, and the factor: slowed by the
+/// recorded peak ratio, checked again, at most four times (the joint solutions chosen can
+/// change with the timing).
+fn auto_timing(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+    recorded: CheckReport,
+) -> (CheckReport, f64) {
+    let mut report = recorded;
+    let mut factor = 1.0;
+    for _ in 0..4 {
+        let needed = needed_factor(&report);
+        if needed <= 1.0 {
+            break;
+        }
+        factor = round_up(factor * needed);
+        report = check_at_timing(robot, cell, &scale_time(targets, factor), config, factor);
+    }
+    (report, factor)
 }
 
 /// The factor by which the checked timing must be slowed for speeds and accelerations to be
@@ -526,7 +619,7 @@ fn check_at_timing(
                 peak_joint_acceleration[axis].max(f.joint_acceleration[axis].abs());
         }
     }
-    let mut report = CheckReport {
+    CheckReport {
         robot: robot.clone(),
         frames,
         peak_speed_ratio,
@@ -538,10 +631,9 @@ fn check_at_timing(
             factor,
             limiting_axis: None,
             automatic: false,
+            fits: None,
         },
-    };
-    report.suggestions = suggestions(robot, cell, targets, &report, config);
-    report
+    }
 }
 
 /// Why a target has no solution: out of reach, or the limit broken by the least bad solution.
@@ -818,6 +910,11 @@ fn unwrap_turning_axes(
     issues
 }
 
+/// The largest time scale a suggested work object may need under [`TimeScale::Auto`]: a
+/// placement that makes the demonstration play more than three times slower is not offered
+/// (a path through a wrist singularity can need 35×).
+pub const MAX_SUGGESTED_TIME_SCALE: f64 = 3.0;
+
 fn suggestions(
     robot: &Robot,
     cell: &Cell,
@@ -826,15 +923,31 @@ fn suggestions(
     config: &CheckConfig,
 ) -> Vec<Suggestion> {
     let mut out = Vec::new();
-    if report.unreachable_count() > 0 {
+    let slow = report.timing.automatic && report.timing.factor > MAX_SUGGESTED_TIME_SCALE;
+    let reachable = report.unreachable_count() == 0;
+    let speed_only = reachable
+        && report
+            .failing()
+            .flat_map(|f| f.issues.iter())
+            .filter(|i| i.is_failure())
+            .all(|i| {
+                matches!(
+                    i,
+                    FrameIssue::TooFast { .. } | FrameIssue::TooHighAcceleration { .. }
+                )
+            });
+    let placement_wanted =
+        !report.passes() && !speed_only || slow || report.near_singular_count() > 0;
+    if placement_wanted && !targets.is_empty() {
         if let Some(by_in_base) = work_object_move(robot, cell, targets, config) {
             let mut base_from_wobj = cell.base_from_wobj;
             base_from_wobj.translation.vector += by_in_base;
-            out.push(Suggestion::UseWorkObject { base_from_wobj });
+            out.push(verified(robot, cell, targets, config, base_from_wobj));
         } else if let Some(base_from_wobj) = work_object_placement(robot, cell, targets, config) {
-            out.push(Suggestion::UseWorkObject { base_from_wobj });
+            out.push(verified(robot, cell, targets, config, base_from_wobj));
         }
-    } else {
+    }
+    if reachable {
         let factor = needed_factor(report);
         if factor > 1.0 {
             out.push(Suggestion::SlowDown {
@@ -845,8 +958,46 @@ fn suggestions(
     out
 }
 
-/// A work object, turned and placed, for which every target has a solution within the
-/// limits: the current orientation composed with each of the turns a rig's world is usually
+/// The suggestion of a work object [`passes_whole_check`] accepted, with its time scale.
+fn verified(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+    base_from_wobj: crate::geometry::Pose,
+) -> Suggestion {
+    let placed = Cell {
+        base_from_wobj,
+        ..*cell
+    };
+    let time_scale = check_timed(robot, &placed, targets, config).timing.factor;
+    Suggestion::UseWorkObject {
+        base_from_wobj,
+        time_scale,
+    }
+}
+
+/// True when the whole check passes in `cell`: every frame in reach within the joint ranges,
+/// the joints within their speeds at the time scale asked (under [`TimeScale::Auto`], at most
+/// [`MAX_SUGGESTED_TIME_SCALE`]), no configuration change, no frame near the wrist
+/// singularity. Reach alone is tried first (quick).
+fn passes_whole_check(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    config: &CheckConfig,
+) -> bool {
+    if !reachable_everywhere(robot, cell, targets, config) {
+        return false;
+    }
+    let report = check_timed(robot, cell, targets, config);
+    report.passes()
+        && report.near_singular_count() == 0
+        && !(report.timing.automatic && report.timing.factor > MAX_SUGGESTED_TIME_SCALE)
+}
+
+/// A work object, turned and placed, with which the whole check passes
+/// ([`passes_whole_check`]): the current orientation composed with each of the turns a rig's world is usually
 /// off by (none, half a turn about x, y or z, a quarter turn about z), the targets' centroid
 /// placed at [`Robot::comfortable_point`] or up to 30 % of the reach below or 20 % above it.
 /// The first that passes, `None` when none does.
@@ -886,7 +1037,7 @@ fn work_object_placement(
                 base_from_wobj,
                 ..*cell
             };
-            if reachable_everywhere(robot, &placed, targets, config) {
+            if passes_whole_check(robot, &placed, targets, config) {
                 return Some(base_from_wobj);
             }
         }
@@ -895,7 +1046,7 @@ fn work_object_placement(
 }
 
 /// A translation of the work object, toward the arm's comfortable zone
-/// ([`Robot::comfortable_point`]), after which every target has a solution within the limits;
+/// ([`Robot::comfortable_point`]), after which the whole check passes ([`passes_whole_check`]);
 /// tried in steps of 1 % of the reach along the direction from the targets' centroid to that
 /// point.
 fn work_object_move(
@@ -925,10 +1076,174 @@ fn work_object_move(
         let by = direction * moved;
         let mut moved_cell = *cell;
         moved_cell.base_from_wobj.translation.vector += by;
-        if reachable_everywhere(robot, &moved_cell, targets, config) {
+        if passes_whole_check(robot, &moved_cell, targets, config) {
             return Some(by);
         }
         moved += step;
     }
     None
+}
+
+/// A run of consecutive checked frames with the same issue (the same kind, on the same axis):
+/// `check`, `export` and the studio print these instead of one line a frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IssueRange {
+    /// The first frame of the run.
+    pub first: FrameIndex,
+    /// The last frame of the run.
+    pub last: FrameIndex,
+    /// Frames in the run.
+    pub frames: usize,
+    /// The run's worst issue (fastest, furthest outside, closest to the singularity); for
+    /// an axis outside its range, the angle furthest outside.
+    pub worst: FrameIssue,
+    /// The limit the worst issue breaks, for the text: the axis's range (radians) for
+    /// [`FrameIssue::OutsideLimits`].
+    range: Option<(f64, f64)>,
+}
+
+impl IssueRange {
+    /// True when the run stops the program (false for a warning).
+    #[must_use]
+    pub fn is_failure(&self) -> bool {
+        self.worst.is_failure()
+    }
+}
+
+impl std::fmt::Display for IssueRange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.first == self.last {
+            write!(f, "frame {}: ", self.first.0)?;
+        } else {
+            write!(f, "frames {}-{}: ", self.first.0, self.last.0)?;
+        }
+        let many = self.frames > 1;
+        match self.worst {
+            FrameIssue::OutOfReach => write!(f, "out of reach"),
+            FrameIssue::OutsideLimits { axis, angle } => {
+                let up_to = if many { "up to " } else { "" };
+                write!(
+                    f,
+                    "axis {} outside its range, {up_to}{:.1}°",
+                    axis + 1,
+                    angle.to_degrees()
+                )?;
+                if let Some((min, max)) = self.range {
+                    write!(f, " of {:.0}..{:.0}°", min.to_degrees(), max.to_degrees())?;
+                }
+                Ok(())
+            }
+            FrameIssue::TooFast {
+                axis,
+                speed,
+                max_speed,
+            } => write!(
+                f,
+                "axis {} too fast, {}{:.0}°/s of {:.0}°/s",
+                axis + 1,
+                if many { "up to " } else { "" },
+                speed.abs().to_degrees(),
+                max_speed.to_degrees()
+            ),
+            FrameIssue::TooHighAcceleration {
+                axis,
+                acceleration,
+                max_acceleration,
+            } => write!(
+                f,
+                "axis {} accelerates too hard, {}{:.0}°/s² of {:.0}°/s²",
+                axis + 1,
+                if many { "up to " } else { "" },
+                acceleration.abs().to_degrees(),
+                max_acceleration.to_degrees()
+            ),
+            FrameIssue::ConfigurationChange { .. } | FrameIssue::TimeNotIncreasing { .. } => {
+                write!(f, "{}", self.worst)?;
+                if many {
+                    write!(f, " ({} times)", self.frames)?;
+                }
+                Ok(())
+            }
+            FrameIssue::NearSingular { axis5 } => write!(
+                f,
+                "near the wrist singularity, axis 5 {}{:.1}°",
+                if many { "down to " } else { "at " },
+                axis5.to_degrees()
+            ),
+        }
+    }
+}
+
+/// What groups issues into a run: the kind and, for the per-axis kinds, the axis.
+fn issue_key(issue: &FrameIssue) -> (u8, usize) {
+    match issue {
+        FrameIssue::OutOfReach => (0, 0),
+        FrameIssue::OutsideLimits { axis, .. } => (1, *axis),
+        FrameIssue::TooFast { axis, .. } => (2, *axis),
+        FrameIssue::TooHighAcceleration { axis, .. } => (3, *axis),
+        FrameIssue::ConfigurationChange { .. } => (4, 0),
+        FrameIssue::TimeNotIncreasing { .. } => (5, 0),
+        FrameIssue::NearSingular { .. } => (6, 0),
+    }
+}
+
+/// How bad an issue is within its run (larger is worse).
+fn issue_severity(issue: &FrameIssue, robot: &Robot) -> f64 {
+    match *issue {
+        FrameIssue::OutsideLimits { axis, angle } => {
+            let l = &robot.limits[axis];
+            (l.min - angle).max(angle - l.max)
+        }
+        FrameIssue::TooFast { speed, .. } => speed.abs(),
+        FrameIssue::TooHighAcceleration { acceleration, .. } => acceleration.abs(),
+        FrameIssue::NearSingular { axis5 } => -axis5.abs(),
+        _ => 0.0,
+    }
+}
+
+/// The report's issues as runs of consecutive frames (consecutive in the report: frames
+/// without a pose in between do not break a run), ordered by their first frame, failures and
+/// warnings alike ([`IssueRange::is_failure`]).
+#[must_use]
+pub fn issue_ranges(report: &CheckReport) -> Vec<IssueRange> {
+    // Open runs by key: (index of the run in `out`, the report position of its last frame).
+    let mut open: Vec<((u8, usize), usize, usize)> = Vec::new();
+    let mut out: Vec<IssueRange> = Vec::new();
+    for (position, frame) in report.frames.iter().enumerate() {
+        for issue in &frame.issues {
+            let key = issue_key(issue);
+            let continuing = open
+                .iter_mut()
+                .find(|(k, _, last)| *k == key && *last + 1 == position);
+            if let Some((_, run, last)) = continuing {
+                let range = &mut out[*run];
+                *last = position;
+                range.last = frame.target.frame;
+                range.frames += 1;
+                if issue_severity(issue, &report.robot)
+                    > issue_severity(&range.worst, &report.robot)
+                {
+                    range.worst = *issue;
+                }
+            } else {
+                open.retain(|(k, _, _)| *k != key);
+                open.push((key, out.len(), position));
+                let range = match issue {
+                    FrameIssue::OutsideLimits { axis, .. } => {
+                        let l = &report.robot.limits[*axis];
+                        Some((l.min, l.max))
+                    }
+                    _ => None,
+                };
+                out.push(IssueRange {
+                    first: frame.target.frame,
+                    last: frame.target.frame,
+                    frames: 1,
+                    worst: *issue,
+                    range,
+                });
+            }
+        }
+    }
+    out
 }

@@ -198,15 +198,22 @@ pub fn krl_program(program: &Program) -> KrlProgram {
         "  $APO.CDIS={}",
         number(program.tolerance.position_tolerance, 3)
     );
+    let home = home_move(program);
+    if !program.moves.is_empty() || home.is_some() {
+        let _ = writeln!(src, "  BAS(#VEL_PTP,{APPROACH_AXIS_SPEED_PERCENT})");
+    }
+    if let Some(home) = &home {
+        let _ = writeln!(src, "{home}");
+    }
     if !program.moves.is_empty() {
-        let _ = writeln!(
-            src,
-            "  BAS(#VEL_PTP,{APPROACH_AXIS_SPEED_PERCENT})\n  PTP XP1"
-        );
+        let _ = writeln!(src, "  PTP XP1");
     }
     for (i, m) in program.moves.iter().enumerate().skip(1) {
         let speed = (m.tcp_speed / 1000.0).clamp(MIN_CP_SPEED_M_S, MAX_CP_SPEED_M_S);
         let blend = if program.stops_at(i) { "" } else { " C_DIS" };
+        if let Some(gap) = program.gap_crossed_by(i) {
+            let _ = writeln!(src, "  ; Gap bridged by the next move: {gap}.");
+        }
         let _ = writeln!(
             src,
             "  $VEL.CP={}\n  LIN XP{}{blend}",
@@ -214,11 +221,27 @@ pub fn krl_program(program: &Program) -> KrlProgram {
             i + 1
         );
     }
+    if let Some(home) = &home {
+        let _ = writeln!(src, "{home}");
+    }
     let _ = writeln!(src, "END");
     KrlProgram { src, dat }
 }
 
 /// `X x,Y y,Z z,A a,B b,C c` with A, B, C the Z-Y-X Euler angles in degrees.
+/// The joint move to `--home`, an axis-specific PTP (`PTP {A1 …,A6 …}`, degrees), `None`
+/// without a home.
+fn home_move(program: &Program) -> Option<String> {
+    let home = program.home?;
+    let axes: Vec<String> = home
+        .0
+        .iter()
+        .enumerate()
+        .map(|(i, a)| format!("A{} {}", i + 1, number(a.to_degrees(), 4)))
+        .collect();
+    Some(format!("  PTP {{{}}}", axes.join(",")))
+}
+
 fn frame_fields(pose: &Pose) -> String {
     let t = pose.translation.vector;
     let (c, b, a) = pose.rotation.euler_angles();

@@ -8,9 +8,11 @@
 
 use crate::geometry::{Pose, Vec3};
 use crate::robot::check::{CheckReport, Timing};
+use crate::robot::gaps::Gap;
 use crate::robot::kinematics::{
     ArmConfiguration, IkSolution, Joints, Robot, inverse_within_limits,
 };
+use crate::robot::rapid::number;
 use crate::robot::simplify::{SimplifyConfig, simplify};
 use crate::robot::{Cell, TcpTarget};
 
@@ -89,6 +91,12 @@ pub struct Program {
     pub moves: Vec<ProgramMove>,
     /// The time scale the demonstration is played at (the moves' speeds include it).
     pub timing: Timing,
+    /// Joints (the maker's convention, radians) the program starts and ends at with a joint
+    /// move (`--home`, checked by [`check_home`]), `None` for none.
+    pub home: Option<Joints>,
+    /// Gaps in the demonstration that straight moves cross (`--bridge-gaps`): each is said in
+    /// a comment before the move that crosses it ([`Program::gap_crossed_by`]).
+    pub gaps: Vec<Gap>,
 }
 
 /// TCP speed of the linear moves onto the first point and off the last one, mm/s: a brush
@@ -111,6 +119,15 @@ impl Program {
 }
 
 impl Program {
+    /// The gap the move at `index` crosses from the move before it, for the comment the
+    /// dialects write before it (`None` for the first move or a move within the data).
+    #[must_use]
+    pub fn gap_crossed_by(&self, index: usize) -> Option<&Gap> {
+        let from = self.moves.get(index.checked_sub(1)?)?.target.frame;
+        let to = self.moves.get(index)?.target.frame;
+        self.gaps.iter().find(|g| g.spans(from, to))
+    }
+
     /// True when the robot must stop exactly at move `index` rather than blend through it:
     /// the last move, the paint point the approach lands on and the one the retract lifts
     /// from (the brush touches down and lifts off there).
@@ -122,8 +139,8 @@ impl Program {
             || kind(index + 1) == Some(MoveKind::Retract)
     }
 
-    /// Adds an approach `distance_mm` back along the tool's axis (the TCP's z, away from the
-    /// work) from the first point, and the same retract after the last one, each with the
+    /// Adds an approach `distance_mm` back along the tool's axis (the TCP's z, on the side of
+    /// the flange: away from the work) from the first point, and the same retract after the last one, each with the
     /// joints closest to its paint point's in the same configuration; the linear moves onto
     /// and off the paint run at [`APPROACH_SPEED_MM_S`], slower when an axis would exceed
     /// `speed_fraction` of its limit. Nothing changes for a distance of zero or an empty
@@ -150,6 +167,16 @@ impl Program {
         self.moves.insert(0, approach);
         self.moves.push(off);
         Ok(())
+    }
+
+    /// The sign of the TCP's z that points away from the work: toward the flange (the arm is
+    /// always on the handle's side of the brush's tip), so `+1` for a TCP whose z runs up the
+    /// handle (the paper's brush, `--tcp 0,0,200,0,1,0,0`) and `−1` for one whose z points into
+    /// the work (`--tcp 0,0,200,1,0,0,0`, ABB's tools); `−1` when the flange lies across the
+    /// axis.
+    fn away_from_work(&self) -> f64 {
+        let flange_in_tcp = self.cell.flange_from_tcp.inverse().translation.vector;
+        if flange_in_tcp.z > 1e-6 { 1.0 } else { -1.0 }
     }
 
     /// [`Program::lifted`] at `distance_mm`, else at 80, 60 or 40 % of it (an arm near the
@@ -179,7 +206,7 @@ impl Program {
         which: &str,
     ) -> Result<ProgramMove, String> {
         let lift = Pose::from_parts(
-            nalgebra::Translation3::new(0.0, 0.0, -distance_mm),
+            nalgebra::Translation3::new(0.0, 0.0, self.away_from_work() * distance_mm),
             nalgebra::UnitQuaternion::identity(),
         );
         let wobj_from_tcp = at.target.wobj_from_tcp * lift;
@@ -241,6 +268,26 @@ impl Program {
     }
 }
 
+/// Checks home joints (the maker's convention, radians) against the robot's ranges.
+///
+/// # Errors
+/// Names the first axis outside its range, with the range, in degrees.
+pub fn check_home(robot: &Robot, home: &Joints) -> Result<(), String> {
+    for (axis, (angle, limit)) in home.0.iter().zip(&robot.limits).enumerate() {
+        if !(angle.is_finite() && limit.contains(*angle)) {
+            return Err(format!(
+                "axis {} at {}° is outside the {}'s range {:.0}..{:.0}°",
+                axis + 1,
+                number(angle.to_degrees(), 3),
+                robot.name,
+                limit.min.to_degrees(),
+                limit.max.to_degrees()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Builds a program from a checked path, dropping the targets that the simplified path
 /// passes within tolerance.
 #[must_use]
@@ -284,6 +331,8 @@ pub fn build_program(
         tolerance: *tolerance,
         moves,
         timing: report.timing,
+        home: None,
+        gaps: Vec::new(),
     }
 }
 

@@ -14,7 +14,7 @@
 use std::fmt::Write as _;
 
 use crate::geometry::{Pose, Quat};
-use crate::robot::kinematics::confdata;
+use crate::robot::kinematics::{Joints, confdata};
 use crate::robot::program::{Program, ProgramMove};
 
 /// Options of [`rapid_module`].
@@ -94,6 +94,13 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
             robtarget_literal(m)
         );
     }
+    if let Some(home) = &program.home {
+        let _ = writeln!(
+            out,
+            "  CONST jointtarget {HOME} := [[{}],{NO_EXTERNAL_AXES}];",
+            degrees_list(home)
+        );
+    }
     for (i, m) in program.moves.iter().enumerate().skip(1) {
         let _ = writeln!(
             out,
@@ -115,6 +122,15 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
         .map(|start| start..(start + per_routine).min(program.moves.len()))
         .collect();
     let _ = writeln!(out, "\n  PROC main()");
+    let home = |out: &mut String| {
+        if program.home.is_some() {
+            let _ = writeln!(
+                out,
+                "    MoveAbsJ {HOME}, v100, fine, {tool}\\WObj:={wobj};"
+            );
+        }
+    };
+    home(&mut out);
     if !program.moves.is_empty() {
         let _ = writeln!(
             out,
@@ -125,6 +141,7 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
     for r in 0..routines.len() {
         let _ = writeln!(out, "    path_{};", r + 1);
     }
+    home(&mut out);
     let _ = writeln!(out, "  ENDPROC");
     for (r, range) in routines.iter().enumerate() {
         let _ = writeln!(out, "\n  PROC path_{}()", r + 1);
@@ -140,6 +157,9 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
             } else {
                 String::new()
             };
+            if let Some(gap) = program.gap_crossed_by(i) {
+                let _ = writeln!(out, "    ! Gap bridged by the next move: {gap}.");
+            }
             let _ = writeln!(
                 out,
                 "    MoveL {}, {}{time}, {zone}, {tool}\\WObj:={wobj};",
@@ -151,6 +171,19 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
     }
     let _ = writeln!(out, "ENDMODULE");
     out
+}
+
+/// Name of the home `jointtarget` (`--home`), reached with `MoveAbsJ` first and last.
+const HOME: &str = "jHome";
+
+/// Six joint angles in degrees, 4 decimals, comma-separated (a `jointtarget`'s `robax`).
+fn degrees_list(joints: &Joints) -> String {
+    joints
+        .0
+        .iter()
+        .map(|a| number(a.to_degrees(), 4))
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// Name of the i-th target: `p0001`, `p0002`, …

@@ -14,6 +14,7 @@
 use std::fmt::Write as _;
 
 use crate::geometry::Pose;
+use crate::robot::kinematics::Joints;
 use crate::robot::program::Program;
 use crate::robot::rapid::number;
 
@@ -94,19 +95,16 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
     let a = number(config.acceleration_m_s2, 3);
     // Blend radius: the path tolerance, and never more than the segment allows (r = 0 at the end).
     let blend = number(program.tolerance.position_tolerance / 1000.0, 6);
+    let home = program.home.map(|joints| joint_move(&joints));
+    if let Some(home) = &home {
+        let _ = writeln!(out, "{home}");
+    }
     for (i, m) in program.moves.iter().enumerate() {
         let pose = pose_literal(&m.target.wobj_from_tcp);
         if i == 0 {
             match m.joints {
                 Some(joints) => {
-                    let q: Vec<String> = joints.0.iter().map(|v| number(*v, 6)).collect();
-                    let _ = writeln!(
-                        out,
-                        "  movej([{}], a={}, v={})",
-                        q.join(", "),
-                        number(APPROACH_ACCELERATION_RAD_S2, 3),
-                        number(APPROACH_SPEED_RAD_S, 3)
-                    );
+                    let _ = writeln!(out, "{}", joint_move(&joints));
                 }
                 // A forced export of an unreachable first target: no joints to go to.
                 None => {
@@ -121,13 +119,30 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
         } else {
             blend.clone()
         };
+        if let Some(gap) = program.gap_crossed_by(i) {
+            let _ = writeln!(out, "  # Gap bridged by the next move: {gap}.");
+        }
         let _ = writeln!(
             out,
             "  movel(pose_trans(wobj, {pose}), a={a}, v={v}, r={r})"
         );
     }
+    if let Some(home) = &home {
+        let _ = writeln!(out, "{home}");
+    }
     let _ = writeln!(out, "end\n{name}()");
     out
+}
+
+/// A careful `movej` to `joints` (radians), at [`APPROACH_SPEED_RAD_S`].
+fn joint_move(joints: &Joints) -> String {
+    let q: Vec<String> = joints.0.iter().map(|v| number(*v, 6)).collect();
+    format!(
+        "  movej([{}], a={}, v={})",
+        q.join(", "),
+        number(APPROACH_ACCELERATION_RAD_S2, 3),
+        number(APPROACH_SPEED_RAD_S, 3)
+    )
 }
 
 /// `p[x, y, z, rx, ry, rz]`: metres (micrometre resolution) and a rotation vector (radians).
