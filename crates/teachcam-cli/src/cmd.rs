@@ -13,6 +13,7 @@ pub mod live;
 pub mod pivot;
 pub mod record;
 pub mod repeatability;
+pub mod replay;
 pub mod report;
 pub mod simulate;
 pub mod smooth;

@@ -67,6 +67,7 @@ enum Command {
     SmoothingStudy(cmd::smoothing_study::Args),
     Check(cmd::check::Args),
     Export(cmd::export::Args),
+    Replay(cmd::replay::Args),
     Align(cmd::align::Args),
     Pivot(cmd::pivot::Args),
 }
@@ -217,6 +218,7 @@ fn main() -> ExitCode {
         Command::SmoothingStudy(args) => cmd::smoothing_study::run(&args),
         Command::Check(args) => cmd::check::run(&args),
         Command::Export(args) => cmd::export::run(&args),
+        Command::Replay(args) => cmd::replay::run(&args),
         Command::Align(args) => cmd::align::run(&args),
         Command::Pivot(args) => cmd::pivot::run(&args),
     };

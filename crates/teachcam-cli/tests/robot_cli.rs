@@ -242,7 +242,8 @@ fn every_dialect_is_written() {
             "p.src",
             "&ACCESS RVP",
         ),
-        ("urscript", "ur5e", UR_WOBJ, TCP, "p.script", "def p():"),
+        // `p` starts URScript's pose literals: the program is named tc_p.
+        ("urscript", "ur5e", UR_WOBJ, TCP, "p.script", "def tc_p():"),
         (
             "csv",
             "kr6-r900",
@@ -811,4 +812,82 @@ fn lengths_likely_in_the_wrong_unit_are_warned_on_one_line() {
         "10",
     ]);
     assert!(warnings(&o).is_empty(), "{}", text(&o.stderr));
+}
+
+/// `teachcam replay PROGRAM --robot R --trajectory TRAJ --json`: the exit status and the JSON.
+fn replay(program: &Path, robot: &str, trajectory: &Path) -> (Option<i32>, serde_json::Value) {
+    let out = teachcam(&[
+        "replay",
+        program.to_str().unwrap(),
+        "--robot",
+        robot,
+        "--trajectory",
+        trajectory.to_str().unwrap(),
+        "--json",
+    ]);
+    let json = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("{e}: {} {}", text(&out.stdout), text(&out.stderr)));
+    (out.status.code(), json)
+}
+
+/// Every program the exports above write (RAPID, KRL, URScript; the stroke at its own pace and
+/// ten times faster, slowed by the time scale; the default and a coarser tolerance), played as
+/// a controller would: no joint over 1.05 × its limit, and every demonstrated position within
+/// the tolerance plus half the zone (the blend's largest corner cut, r/2; the zone is the
+/// tolerance) of the played path. The replay exits 1 exactly when an axis is over its limit
+/// (the time scale fits the frames the check measured; the controller interpolates between the
+/// simplified targets, up to 1.2 % faster on the fast stroke).
+#[test]
+fn every_exported_program_replays_within_the_limits_and_the_tolerance() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, pace) in [("stroke", 1.0), ("fast", 0.1)] {
+        let trajectory = dir.path().join(format!("{name}.csv"));
+        write_stroke(&trajectory, pace);
+        for (dialect, robot, wobj, tcp, extension) in [
+            ("rapid", "irb120", WOBJ, TCP, "mod"),
+            ("krl", "kr6-r700", KUKA_WOBJ, KUKA_TCP, "src"),
+            ("urscript", "ur5e", UR_WOBJ, TCP, "script"),
+        ] {
+            for tolerance in [0.5, 2.0] {
+                let program = dir.path().join(format!("{name}_{dialect}.{extension}"));
+                let out = teachcam(&[
+                    "export",
+                    dialect,
+                    trajectory.to_str().unwrap(),
+                    "--robot",
+                    robot,
+                    "--wobj",
+                    wobj,
+                    "--tcp",
+                    tcp,
+                    "--tolerance-mm",
+                    &tolerance.to_string(),
+                    "-o",
+                    program.to_str().unwrap(),
+                ]);
+                assert!(out.status.success(), "{dialect}: {}", text(&out.stderr));
+                let (status, json) = replay(&program, robot, &trajectory);
+                let what = format!("{name} {dialect} {tolerance} mm: {json}");
+                let peak = json["joints"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|j| j["ratio"].as_f64().unwrap())
+                    .fold(0.0, f64::max);
+                assert!(peak <= 1.05, "{what}");
+                assert_eq!(json["unreachable_samples"], 0, "{what}");
+                // Exit 1 exactly when an axis is over its limit.
+                assert_eq!(status, Some(i32::from(peak > 1.0)), "{what}");
+                let deviation = json["deviation_mm"]["max"].as_f64().unwrap();
+                assert!(deviation <= 1.5 * tolerance + 0.01, "{what}");
+                eprintln!(
+                    "{name} {dialect} {tolerance} mm: {} moves, {:.2} s, peak {:.3} of the limit, deviation max {deviation:.3} mm",
+                    json["moves"],
+                    json["duration_s"].as_f64().unwrap(),
+                    peak
+                );
+                assert_eq!(json["deviation_mm"]["points"], 120, "{what}");
+            }
+        }
+    }
 }

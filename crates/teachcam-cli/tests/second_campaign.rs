@@ -179,3 +179,126 @@ fn timestamps_that_do_not_increase_or_disagree_with_the_rate_are_refused() {
         String::from_utf8_lossy(&done.stderr)
     );
 }
+
+/// The repro's cell: the IRB 120 and UR5e reach `straight.csv` with it.
+const CELL: [&str; 4] = ["--wobj", "350,0,100,1,0,0,0", "--tcp", "0,0,200,0,1,0,0"];
+
+/// `teachcam export DIALECT straight.csv --robot ROBOT CELL extra... -o dir/output`.
+fn export(
+    dir: &Path,
+    dialect: &str,
+    robot: &str,
+    output: &str,
+    extra: &[&str],
+) -> Option<std::process::Output> {
+    let straight = repro("straight.csv")?;
+    let out = dir.join(output);
+    let mut args = vec![
+        "export",
+        dialect,
+        straight.to_str().unwrap(),
+        "--robot",
+        robot,
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend(CELL);
+    args.extend(extra);
+    Some(teachcam(&args))
+}
+
+/// F4: `--tool-mass 1e9` on the IRB 120 (rated 3 kg) and 50 on the UR5e (5 kg) were written
+/// into the program. Both are refused (exit 1) in one line naming the robot, the mass given
+/// and the rated one; nothing is written. A mass within the rating is written.
+#[test]
+fn a_payload_over_the_robots_rating_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (dialect, robot, mass, given, rated, output) in [
+        ("rapid", "irb120", "1e9", "1000000000", "3 kg", "m.mod"),
+        ("urscript", "ur5e", "50", "50", "5 kg", "m.script"),
+    ] {
+        let Some(done) = export(dir.path(), dialect, robot, output, &["--tool-mass", mass]) else {
+            return;
+        };
+        let message = String::from_utf8_lossy(&done.stderr);
+        assert_eq!(done.status.code(), Some(1), "{robot}: {message}");
+        assert!(
+            message.contains(robot) && message.contains(given) && message.contains(rated),
+            "{robot}: {message}"
+        );
+        assert_eq!(message.trim().lines().count(), 1, "{message}");
+        assert!(
+            !dir.path().join(output).exists(),
+            "{robot}: nothing written"
+        );
+    }
+    let done = export(
+        dir.path(),
+        "rapid",
+        "irb120",
+        "ok.mod",
+        &["--tool-mass", "2.5"],
+    )
+    .unwrap();
+    assert!(
+        done.status.success(),
+        "{}",
+        String::from_utf8_lossy(&done.stderr)
+    );
+    let module = std::fs::read_to_string(dir.path().join("ok.mod")).unwrap();
+    assert!(module.contains("[TRUE,[[0.000,0.000,200.000]"), "{module}");
+    assert!(module.contains("[2.500,"), "{module}");
+}
+
+/// F7: `-o MODULE.mod` wrote `MODULE MODULE` (a RAPID reserved word) and `-o def.script`
+/// `def def():`. From a file name the program is now prefixed `tc_` (said on stderr); the
+/// same word given with `--name` is refused (exit 2). KRL keeps its file's name, so a keyword
+/// is refused; and every dialect needs its extension (`-o p` for KRL was taken).
+#[test]
+fn reserved_program_names_and_missing_extensions_are_refused_or_prefixed() {
+    let dir = tempfile::tempdir().unwrap();
+    for (dialect, robot, output, first_line) in [
+        ("rapid", "irb120", "MODULE.mod", "MODULE tc_MODULE"),
+        ("rapid", "irb120", "main.modx", "MODULE tc_main"),
+        ("urscript", "ur5e", "def.script", "def tc_def():"),
+        ("urscript", "ur5e", "movel.script", "def tc_movel():"),
+    ] {
+        let Some(done) = export(dir.path(), dialect, robot, output, &[]) else {
+            return;
+        };
+        let message = String::from_utf8_lossy(&done.stderr);
+        assert!(done.status.success(), "{output}: {message}");
+        assert!(message.contains("tc_"), "{output}: {message}");
+        let text = std::fs::read_to_string(dir.path().join(output)).unwrap();
+        assert_eq!(text.lines().next(), Some(first_line), "{output}");
+    }
+    for (dialect, robot, output, extra, says) in [
+        (
+            "rapid",
+            "irb120",
+            "a.mod",
+            vec!["--name", "PROC"],
+            "reserved",
+        ),
+        (
+            "urscript",
+            "ur5e",
+            "a.script",
+            vec!["--name", "while"],
+            "keyword",
+        ),
+        ("krl", "kr6-r700", "loop.src", vec![], "keyword"),
+        ("krl", "kr6-r700", "p", vec![], ".src"),
+        ("rapid", "irb120", "p", vec![], ".mod or .modx"),
+        ("rapid", "irb120", "p.txt", vec![], ".mod or .modx"),
+        ("urscript", "ur5e", "p.py", vec![], ".script"),
+    ] {
+        let Some(done) = export(dir.path(), dialect, robot, output, &extra) else {
+            return;
+        };
+        let message = String::from_utf8_lossy(&done.stderr);
+        assert_eq!(done.status.code(), Some(2), "{output}: {message}");
+        assert!(message.contains(says), "{output}: {message}");
+        assert!(!dir.path().join(output).exists(), "{output}");
+    }
+}

@@ -23,6 +23,7 @@ pub mod kinematics;
 pub mod krl;
 pub mod program;
 pub mod rapid;
+pub mod replay;
 pub mod simplify;
 pub mod table;
 pub mod urscript;
@@ -90,6 +91,46 @@ pub fn tcp_targets(trajectory: &Trajectory, tip_rotation: &UnitQuaternion<f64>) 
             })
         })
         .collect()
+}
+
+/// A warning when `--tcp` looks written for another maker's flange frame: an offset along z
+/// with the TCP's z along it too (identity, or turned half a turn about x) on a KUKA, whose
+/// FLANGE has x out of the flange (the brush would stick out sideways), or the same along x
+/// on an ABB or UR arm (z out of the flange). `None` otherwise, and within 1 mm of the flange.
+#[must_use]
+pub fn tcp_convention_warning(
+    robot: &kinematics::Robot,
+    flange_from_tcp: &crate::geometry::Pose,
+) -> Option<String> {
+    let t = flange_from_tcp.translation.vector;
+    let length = t.norm();
+    let along = |axis: usize| t[axis].abs() > 0.99 * length;
+    // The TCP's z (the brush's axis) along the offset too, as the other maker writes it.
+    let tool_z = flange_from_tcp.rotation * nalgebra::Vector3::z();
+    let axial = |axis: usize| along(axis) && tool_z[axis].abs() > 0.99;
+    if length < 1.0 {
+        return None;
+    }
+    let (axis, out_axis, example) = match robot.maker {
+        kinematics::Maker::Kuka if axial(2) => (
+            "z",
+            "x",
+            format!(
+                "\"{},0,0,0.7071068,0,-0.7071068,0\"",
+                rapid::number(length, 1)
+            ),
+        ),
+        kinematics::Maker::Abb | kinematics::Maker::UniversalRobots if axial(0) => (
+            "x",
+            "z",
+            format!("\"0,0,{},1,0,0,0\"", rapid::number(length, 1)),
+        ),
+        _ => return None,
+    };
+    Some(format!(
+        "--tcp: an offset and tool axis along {axis} on the {}, whose flange frame has {out_axis} out of the flange: the brush would stick out sideways (along the flange axis it is {out_axis}, e.g. --tcp {example})",
+        robot.name
+    ))
 }
 
 /// The text form of a pose, `x,y,z,qw,qx,qy,qz`, that [`crate::geometry::parse_pose`]

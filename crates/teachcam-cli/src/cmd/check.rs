@@ -181,6 +181,9 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         flange_from_tcp: parse_pose(&args.tcp, "--tcp")?,
     };
     crate::load::check_tcp(&cell.flange_from_tcp);
+    if let Some(warning) = teachcam::robot::tcp_convention_warning(&robot, &cell.flange_from_tcp) {
+        crate::announce::warn(&warning);
+    }
     if !(args.speed_fraction > 0.0 && args.speed_fraction <= 1.0) {
         bail!(
             "--speed-fraction {}: must be in (0, 1]",

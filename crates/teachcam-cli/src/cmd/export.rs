@@ -6,11 +6,11 @@ use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::robot::check::{CheckReport, check_path};
 use teachcam::robot::kinematics::{Joints, Maker};
 use teachcam::robot::krl::{krl_name_problem, krl_program};
-use teachcam::robot::program::{ToolLoad, build_program, check_home};
-use teachcam::robot::rapid::{RapidConfig, rapid_module};
+use teachcam::robot::program::{ToolLoad, build_program, check_home, identifier};
+use teachcam::robot::rapid::{RapidConfig, rapid_module, rapid_name_problem};
 use teachcam::robot::simplify::SimplifyConfig;
 use teachcam::robot::table::poses_csv;
-use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
+use teachcam::robot::urscript::{UrScriptConfig, urscript_name_problem, urscript_program};
 
 use super::check::{CellArgs, GapArgs, resolve, summary};
 use crate::Rejected;
@@ -94,6 +94,68 @@ pub struct Args {
     pub force: bool,
 }
 
+/// The program's name: `--name`, else the output file's name, made an identifier. A reserved
+/// word of the dialect (RAPID `MODULE`, URScript `def`, a KRL keyword) is refused with
+/// `--name`; from a file name it is prefixed `tc_`, said on stderr (KRL: refused, its DEF must
+/// be the file's name). The program file must have its dialect's extension.
+fn program_name(args: &Args) -> anyhow::Result<String> {
+    let stem = args
+        .output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let extension = args
+        .output
+        .extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    let extensions = args.dialect.extensions();
+    if args.dialect != Dialect::Csv && !extensions.contains(&extension.as_str()) {
+        let expected: Vec<String> = extensions.iter().map(|e| format!(".{e}")).collect();
+        anyhow::bail!(
+            "-o {}: {} must end in {}",
+            args.output.display(),
+            args.dialect.format(),
+            expected.join(" or ")
+        );
+    }
+    if args.dialect == Dialect::Krl {
+        let name = args.name.clone().unwrap_or_else(|| stem.clone());
+        if name != stem {
+            anyhow::bail!(
+                "--name {name}: a KRL program's DEF must be its file's name '{stem}' (KSS refuses another)"
+            );
+        }
+        if let Some(problem) = krl_name_problem(&name) {
+            anyhow::bail!(
+                "-o {}: {problem}, and KSS needs the DEF name to be the file's name",
+                args.output.display()
+            );
+        }
+        return Ok(name);
+    }
+    let name = identifier(args.name.as_deref().unwrap_or(&stem));
+    let problem = match args.dialect {
+        Dialect::Rapid => rapid_name_problem(&name),
+        Dialect::Urscript => urscript_name_problem(&name),
+        Dialect::Krl | Dialect::Csv => None,
+    };
+    match (problem, &args.name) {
+        (None, _) => Ok(name),
+        (Some(problem), Some(given)) => {
+            anyhow::bail!("--name {given}: {problem}; choose another name")
+        }
+        (Some(problem), None) => {
+            let prefixed = identifier(&format!("tc_{name}"));
+            crate::announce::warn(&format!(
+                "-o {}: {problem}; the program is named {prefixed}",
+                args.output.display()
+            ));
+            Ok(prefixed)
+        }
+    }
+}
+
 /// What [`write_program`] wrote.
 #[derive(Debug)]
 pub struct Written {
@@ -132,29 +194,7 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
     let mut inputs = vec![args.trajectory.as_path()];
     inputs.extend(args.cell.tool.as_deref());
     check_outputs(&outputs, &inputs)?;
-    let name = args.name.clone().unwrap_or_else(|| {
-        args.output
-            .file_stem()
-            .map_or_else(|| "teachcam".into(), |s| s.to_string_lossy().into_owned())
-    });
-    if args.dialect == Dialect::Krl {
-        let stem = args
-            .output
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        if name != stem {
-            anyhow::bail!(
-                "--name {name}: a KRL program's DEF must be its file's name '{stem}' (KSS refuses another)"
-            );
-        }
-        if let Some(problem) = krl_name_problem(&name) {
-            anyhow::bail!(
-                "-o {}: {problem}, and KSS needs the DEF name to be the file's name",
-                args.output.display()
-            );
-        }
-    }
+    let name = program_name(args)?;
     let robot = super::check::resolve_robot(&args.cell.robot)?;
     if let Some(maker) = args.dialect.maker()
         && maker != robot.maker
@@ -167,6 +207,15 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
             robot.name,
             robot.maker.label()
         );
+    }
+    if let (Some(mass), Some(rated)) = (args.tool_mass, robot.max_payload_kg)
+        && mass > rated
+    {
+        return Err(anyhow::anyhow!(
+            "--tool-mass {mass}: the {} is rated for {rated} kg (its data sheet's payload); a lighter tool or a larger robot",
+            robot.name
+        ))
+        .rejected();
     }
     let home = args.home.map(|h| Joints(h.map(f64::to_radians)));
     if let Some(home) = &home {
@@ -294,7 +343,7 @@ impl Dialect {
     /// program).
     fn extensions(self) -> &'static [&'static str] {
         match self {
-            Self::Rapid => &["mod", "modx", "prg"],
+            Self::Rapid => &["mod", "modx"],
             Self::Krl => &["src"],
             Self::Urscript => &["script"],
             Self::Csv => &["csv"],

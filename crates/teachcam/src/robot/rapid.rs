@@ -7,9 +7,13 @@
 //! [`crate::robot::program::ToolLoad::assumed`], said in the module's comment), `loaddata = [mass, cog, aom, ix, iy, iz]`,
 //! `wobjdata = [robhold, ufprog, ufmec, uframe, oframe]`,
 //! `robtarget = [trans, rot (q1..q4 = qw, qx, qy, qz), robconf [cf1, cf4, cf6, cfx], extax]`,
-//! `speeddata = [v_tcp mm/s, v_ori °/s, v_leax mm/s, v_reax °/s]`; predefined `zonedata` `z0`
-//! (0.3 mm), `z1` (1 mm), `z5`, `z10` and `fine`. The first target is approached with a
-//! `MoveJ` at the predefined `v100` (100 mm/s): a careful approach from wherever the robot stands.
+//! `speeddata = [v_tcp mm/s, v_ori °/s, v_leax mm/s, v_reax °/s]`; the module's own `zonedata`
+//! `zTeachcam` from the path tolerance, and `fine` where the brush touches down, lifts off and
+//! at the end. The first target is approached with a `MoveJ` at the predefined `v100`
+//! (100 mm/s): a careful approach from wherever the robot stands. `ConfJ \On`, `ConfL \On`
+//! (each `robconf` the quadrants the checked joints take; a move whose axis 1, 4 or 6 turns
+//! more than a quadrant is a `MoveJ`) and `SingArea` (`\Wrist` only where axis 5 comes near
+//! zero) are set explicitly.
 
 use std::fmt::Write as _;
 
@@ -115,13 +119,27 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
             )
         );
     }
-    let zone = zone_name(program.tolerance.position_tolerance);
+    let zone = zone_data(program);
+    if let Some((_, literal)) = &zone {
+        let _ = writeln!(out, "  CONST zonedata {ZONE} := {literal};");
+    }
+    let zone = zone.map_or("fine", |(name, _)| name);
+    let joint_moves = joint_moves(program);
     let per_routine = config.max_moves_per_routine.max(1);
     let routines: Vec<std::ops::Range<usize>> = (1..program.moves.len())
         .step_by(per_routine)
         .map(|start| start..(start + per_routine).min(program.moves.len()))
         .collect();
     let _ = writeln!(out, "\n  PROC main()");
+    let (singularity, why) = sing_area(program);
+    let _ = writeln!(
+        out,
+        "    ! Configuration monitored: every robconf is the quadrant the checked joints take there; {why}."
+    );
+    let _ = writeln!(
+        out,
+        "    ConfJ \\On;\n    ConfL \\On;\n    SingArea {singularity};"
+    );
     let home = |out: &mut String| {
         if program.home.is_some() {
             let _ = writeln!(
@@ -160,9 +178,20 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
             if let Some(gap) = program.gap_crossed_by(i) {
                 let _ = writeln!(out, "    ! Gap bridged by the next move: {gap}.");
             }
+            let instruction = if let Some(axis) = joint_moves[i] {
+                let _ = writeln!(
+                    out,
+                    "    ! Axis {axis} turns more than a quadrant from {}: a joint move reaches {}'s robconf (ConfL would stop).",
+                    target_name(i - 1),
+                    target_name(i)
+                );
+                "MoveJ"
+            } else {
+                "MoveL"
+            };
             let _ = writeln!(
                 out,
-                "    MoveL {}, {}{time}, {zone}, {tool}\\WObj:={wobj};",
+                "    {instruction} {}, {}{time}, {zone}, {tool}\\WObj:={wobj};",
                 target_name(i),
                 speed_name(i)
             );
@@ -186,6 +215,115 @@ fn degrees_list(joints: &Joints) -> String {
         .join(",")
 }
 
+/// RAPID's reserved words (ABB, "Technical reference manual – RAPID overview", "Reserved
+/// words") and the names the module itself declares or calls: a module named after one does
+/// not load or shadows what it needs. RAPID is not case sensitive.
+const RAPID_RESERVED: [&str; 78] = [
+    // Reserved words.
+    "ALIAS",
+    "AND",
+    "BACKWARD",
+    "CASE",
+    "CONNECT",
+    "CONST",
+    "DEFAULT",
+    "DIV",
+    "DO",
+    "ELSE",
+    "ELSEIF",
+    "ENDFOR",
+    "ENDFUNC",
+    "ENDIF",
+    "ENDMODULE",
+    "ENDPROC",
+    "ENDRECORD",
+    "ENDTEST",
+    "ENDTRAP",
+    "ENDWHILE",
+    "ERROR",
+    "EXIT",
+    "FALSE",
+    "FOR",
+    "FROM",
+    "FUNC",
+    "GOTO",
+    "IF",
+    "INOUT",
+    "LOCAL",
+    "MOD",
+    "MODULE",
+    "NOSTEPIN",
+    "NOT",
+    "NOVIEW",
+    "OR",
+    "PERS",
+    "PROC",
+    "RAISE",
+    "READONLY",
+    "RECORD",
+    "RETRY",
+    "RETURN",
+    "STEP",
+    "SYSMODULE",
+    "TEST",
+    "THEN",
+    "TO",
+    "TRAP",
+    "TRUE",
+    "TRYNEXT",
+    "UNDO",
+    "VAR",
+    "VIEWONLY",
+    "WHILE",
+    "WITH",
+    "XOR",
+    // Data types, instructions and predefined data the module uses.
+    "BOOL",
+    "CONFDATA",
+    "CONFJ",
+    "CONFL",
+    "LOADDATA",
+    "MAIN",
+    "MOVEJ",
+    "MOVEL",
+    "NUM",
+    "ORIENT",
+    "POS",
+    "POSE",
+    "ROBTARGET",
+    "SINGAREA",
+    "SPEEDDATA",
+    "STRING",
+    "TOOLDATA",
+    "WOBJDATA",
+    "ZONEDATA",
+    "FINE",
+    "V100",
+];
+
+/// Why RAPID would refuse `name` as the module's name, `None` when it accepts it: a reserved
+/// word, a name the module declares (`tTeachcam`, `wTeachcam`, `p0001`, `v0001`, `path_1`,
+/// `zTeachcam`) or a predefined one it uses. `name` is already an identifier
+/// ([`crate::robot::program::identifier`]).
+#[must_use]
+pub fn rapid_name_problem(name: &str) -> Option<String> {
+    let upper = name.to_ascii_uppercase();
+    let declared = ["TTEACHCAM", "WTEACHCAM", "ZTEACHCAM", "JHOME"].contains(&upper.as_str())
+        || upper.starts_with("PATH_")
+        || ((upper.starts_with('P') || upper.starts_with('V'))
+            && upper.len() > 1
+            && upper[1..].chars().all(|c| c.is_ascii_digit()));
+    if RAPID_RESERVED.contains(&upper.as_str()) {
+        Some(format!(
+            "'{name}' is a RAPID reserved word or a name the module uses"
+        ))
+    } else if declared {
+        Some(format!("'{name}' is a name the module declares"))
+    } else {
+        None
+    }
+}
+
 /// Name of the i-th target: `p0001`, `p0002`, …
 #[must_use]
 pub fn target_name(index: usize) -> String {
@@ -196,12 +334,72 @@ fn speed_name(index: usize) -> String {
     format!("v{:04}", index + 1)
 }
 
-/// The largest predefined zone whose TCP radius is within the path tolerance, else `fine`.
-fn zone_name(tolerance: f64) -> &'static str {
-    [("z10", 10.0), ("z5", 5.0), ("z1", 1.0), ("z0", 0.3)]
-        .into_iter()
-        .find(|(_, radius)| *radius <= tolerance)
-        .map_or("fine", |(name, _)| name)
+/// Name of the module's own zone.
+const ZONE: &str = "zTeachcam";
+
+/// Smallest zone radius written, mm: below it every blended move becomes `fine`.
+const MIN_ZONE_MM: f64 = 0.01;
+
+/// The module's zone, `zonedata = [finep, pzone_tcp, pzone_ori, pzone_eax, zone_ori,
+/// zone_leax, zone_reax]`: the TCP zone the path tolerance (the blended corner then stays
+/// within half of it from the kept target), the orientation zone the
+/// orientation tolerance; `None` (every move `fine`) for a tolerance under 0.01 mm.
+fn zone_data(program: &Program) -> Option<(&'static str, String)> {
+    let radius = program.tolerance.position_tolerance;
+    let degrees = program.tolerance.orientation_tolerance.to_degrees();
+    (radius >= MIN_ZONE_MM).then(|| {
+        let r = number(radius, 3);
+        let o = number(degrees, 3);
+        (ZONE, format!("[FALSE,{r},{r},{r},{o},{r},{o}]"))
+    })
+}
+
+/// `SingArea` from the joint path: `\Wrist` when a target has axis 5 within 5° of zero (the
+/// controller may then tilt the tool slightly to pass the wrist singularity rather than
+/// stop), `\Off` otherwise; with the reason for the module's comment.
+fn sing_area(program: &Program) -> (&'static str, String) {
+    let threshold = crate::robot::check::CheckConfig::default().wrist_singularity;
+    let near = program
+        .moves
+        .iter()
+        .filter_map(|m| m.joints)
+        .map(|j| j.0[4].abs())
+        .fold(f64::INFINITY, f64::min);
+    if near < threshold {
+        (
+            "\\Wrist",
+            format!(
+                "SingArea \\Wrist: axis 5 comes within {:.1} deg of the wrist singularity",
+                near.to_degrees()
+            ),
+        )
+    } else {
+        (
+            "\\Off",
+            "SingArea \\Off: axis 5 stays clear of the wrist singularity".to_string(),
+        )
+    }
+}
+
+/// For each move, the axis (1, 4 or 6) whose quadrant changes by more than one from the
+/// previous target, `None` for the moves a `MoveL` with `ConfL \On` runs (the robot takes the
+/// closest configuration along a linear move; a jump of two quadrants would stop it): such a
+/// move is written as a `MoveJ`, which reaches the programmed robconf.
+fn joint_moves(program: &Program) -> Vec<Option<usize>> {
+    let conf = |m: &ProgramMove| match (m.joints, m.configuration) {
+        (Some(j), Some(c)) => Some(confdata(&j, &c)),
+        _ => None,
+    };
+    let mut out = vec![None; program.moves.len()];
+    for i in 1..program.moves.len() {
+        if let (Some(a), Some(b)) = (conf(&program.moves[i - 1]), conf(&program.moves[i])) {
+            out[i] = [(1, a.cf1, b.cf1), (4, a.cf4, b.cf4), (6, a.cf6, b.cf6)]
+                .into_iter()
+                .find(|(_, p, q)| (q - p).abs() > 1)
+                .map(|(axis, _, _)| axis);
+        }
+    }
+    out
 }
 
 /// `[[x,y,z],[q1,q2,q3,q4]]` of a pose, 0.001 mm and 1e-7 in the quaternion.
@@ -246,14 +444,6 @@ pub(crate) fn number(value: f64, decimals: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn zones_fit_in_the_tolerance() {
-        assert_eq!(zone_name(0.1), "fine");
-        assert_eq!(zone_name(0.5), "z0");
-        assert_eq!(zone_name(1.0), "z1");
-        assert_eq!(zone_name(7.0), "z5");
-    }
 
     #[test]
     fn numbers_have_no_negative_zero() {

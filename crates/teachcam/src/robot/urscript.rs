@@ -57,6 +57,32 @@ pub const URSCRIPT_FUNCTIONS: [(&str, usize, usize); 5] = [
     ("set_tcp", 1, 1),
 ];
 
+/// URScript's reserved words (URScript manual, "Keywords"; the language follows Python's) and
+/// the names the program itself uses: a program named after one does not compile or calls
+/// the wrong thing. URScript is case sensitive.
+const URSCRIPT_RESERVED: [&str; 37] = [
+    "and", "as", "assert", "break", "class", "continue", "def", "del", "elif", "else", "end",
+    "enum", "except", "exec", "False", "finally", "for", "from", "global", "halt", "if", "import",
+    "in", "is", "kill", "lambda", "local", "not", "or", "pass", "raise", "return", "run", "thread",
+    "True", "while", "wobj",
+];
+
+/// Why the controller would refuse `name` as the program's `def` name, `None` when it accepts
+/// it: a keyword, `p` (a pose literal's prefix), `wobj` (the program's variable) or a function
+/// the program calls ([`URSCRIPT_FUNCTIONS`]). `name` is already an identifier.
+#[must_use]
+pub fn urscript_name_problem(name: &str) -> Option<String> {
+    if URSCRIPT_RESERVED.contains(&name) || name == "p" {
+        Some(format!(
+            "'{name}' is a URScript keyword or a name the program uses"
+        ))
+    } else if URSCRIPT_FUNCTIONS.iter().any(|(f, _, _)| *f == name) {
+        Some(format!("'{name}' is a URScript function the program calls"))
+    } else {
+        None
+    }
+}
+
 /// The URScript text of a program.
 #[must_use]
 pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {

@@ -27,23 +27,28 @@ MODULE stroke
   CONST speeddata v0010 := [55.926,29.426,5000,1000];
   CONST speeddata v0011 := [82.905,28.976,5000,1000];
   CONST speeddata v0012 := [122.973,28.278,5000,1000];
+  CONST zonedata zTeachcam := [FALSE,0.500,0.500,0.500,0.500,0.500,0.500];
 
   PROC main()
+    ! Configuration monitored: every robconf is the quadrant the checked joints take there; SingArea \Off: axis 5 stays clear of the wrist singularity.
+    ConfJ \On;
+    ConfL \On;
+    SingArea \Off;
     MoveJ p0001, v100, fine, tTeachcam\WObj:=wTeachcam;
     path_1;
   ENDPROC
 
   PROC path_1()
-    MoveL p0002, v0002, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0003, v0003, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0004, v0004, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0005, v0005, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0006, v0006, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0007, v0007, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0008, v0008, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0009, v0009, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0010, v0010, z0, tTeachcam\WObj:=wTeachcam;
-    MoveL p0011, v0011, z0, tTeachcam\WObj:=wTeachcam;
+    MoveL p0002, v0002, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0003, v0003, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0004, v0004, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0005, v0005, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0006, v0006, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0007, v0007, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0008, v0008, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0009, v0009, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0010, v0010, zTeachcam, tTeachcam\WObj:=wTeachcam;
+    MoveL p0011, v0011, zTeachcam, tTeachcam\WObj:=wTeachcam;
     MoveL p0012, v0012, fine, tTeachcam\WObj:=wTeachcam;
   ENDPROC
 ENDMODULE
