@@ -1,28 +1,18 @@
 //! What `record`, `live` and `studio` share: the camera flags (`--fps`, `--exposure-ms`,
 //! `--gain`) and the model flags (`--rig`, `--tool`) as flattened clap structs, the source
-//! configuration built from them, the rig and tool to track a source with, and Ctrl-C as a
-//! request to stop after the frame set in hand.
+//! configuration built from them, the rig and tool to track a source with, and Ctrl-C or
+//! SIGTERM as a request to stop after the frame set in hand.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use teachcam::camera::Rig;
 use teachcam::source::{SourceConfig, SourceSpec};
 use teachcam::tool::Tool;
 
-/// Set by Ctrl-C (SIGINT) or SIGTERM while `record`, `live` or `studio` runs: they finish the
-/// set in hand and end cleanly.
-static STOP: AtomicBool = AtomicBool::new(false);
-
-/// Makes Ctrl-C and SIGTERM ask `record`, `live` and `studio` to stop after the current frame
-/// set instead of ending the process. Called before any other handler is set (only one can be).
-pub fn catch_stop() {
-    let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::SeqCst));
-}
-
-/// True once Ctrl-C or SIGTERM arrived.
+/// True once Ctrl-C or SIGTERM asked `record`, `live` or `studio` to stop after the frame set
+/// in hand (`signals`).
 pub fn stop_requested() -> bool {
-    STOP.load(Ordering::SeqCst)
+    crate::signals::stop_requested()
 }
 
 /// A `--source` value.

@@ -4,8 +4,8 @@
 //! text) and a `run` function: parse → resolve files → call the library → write outputs whole.
 //! Exit status: 0 success, 1 input data rejected, 2 usage (flags and flag values, output paths)
 //! or internal error, 3 the tool was not found in any frame (`track`, `import`), 130
-//! interrupted (SIGINT or SIGTERM: the temporaries of unfinished outputs are removed first;
-//! ARCHITECTURE.md, "Outputs and exit codes").
+//! interrupted by SIGINT, 143 by SIGTERM (the temporaries of unfinished outputs are removed
+//! first; `signals`, ARCHITECTURE.md, "Outputs and exit codes").
 
 use std::process::ExitCode;
 
@@ -19,6 +19,7 @@ mod load;
 mod plot;
 mod progress;
 mod recording;
+mod signals;
 
 /// The whole path on simulated data, from an empty folder; every command's own examples
 /// (`teachcam COMMAND --help`) run in the folder these leave behind.
@@ -181,21 +182,14 @@ fn main() -> ExitCode {
         Err(error) => return usage_error(&error),
     };
     announce::set_quiet(cli.quiet);
-    if matches!(
+    // `record`, `live` and `studio` end on Ctrl-C or SIGTERM by finishing the frame set in
+    // hand; every other command removes the temporaries of unfinished outputs and exits 130
+    // (SIGINT) or 143 (SIGTERM) with one line.
+    let capture = matches!(
         cli.command,
         Command::Record(_) | Command::Live(_) | Command::Studio(_)
-    ) {
-        // These end on Ctrl-C by finishing the frame set in hand (a valid recording, a
-        // summary), so their handler comes first.
-        capture::catch_stop();
-    }
-    // On SIGINT/SIGTERM no output is left half written (each is renamed whole or not at all),
-    // and the temporaries of those unfinished are removed. Without the handler (it cannot be
-    // set twice) an interrupt leaves temporaries, which the next run in that folder removes.
-    let _ = ctrlc::set_handler(|| {
-        teachcam::io::output::remove_live_temporaries();
-        std::process::exit(130);
-    });
+    );
+    signals::handle(capture);
     let result = match cli.command {
         Command::Demo(args) => cmd::demo::run(&args),
         Command::Report(args) => cmd::report::run(&args),
@@ -223,6 +217,7 @@ fn main() -> ExitCode {
         Command::Pivot(args) => cmd::pivot::run(&args),
     };
     match result {
+        Ok(()) if capture => signals::capture_exit(),
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {}", one_line(&format!("{error:#}")));

@@ -53,19 +53,7 @@ fn track(rec: &Path, rig: &Path, tool: &Path, out: &Path) -> std::process::Outpu
 }
 
 fn repro(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/repro/R8_second_campaign")
-        .join(name);
-    if path.exists() {
-        return Some(path);
-    }
-    assert!(
-        std::env::var("CI").as_deref() != Ok("true"),
-        "{} is missing under CI",
-        path.display()
-    );
-    eprintln!("skipped: {} is not there", path.display());
-    None
+    teachcam_testdata::shared_repro("R8_second_campaign").map(|dir| dir.join(name))
 }
 
 fn statuses(trajectory: &Trajectory) -> Vec<Status> {

@@ -25,9 +25,15 @@ fn demo_runs_the_pipeline_and_writes_a_self_contained_report() {
     );
     let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(summary["frames_tracked"], 120);
-    // The bar for the paper's rig (0.1 mm); the noise model puts it near 0.02 mm.
-    assert!(summary["raw_tip_error_rms_mm"].as_f64().unwrap() < 0.10);
-    assert!(summary["smoothed_tip_error_rms_mm"].as_f64().unwrap() < 0.10);
+    // About twice the noise model's error: the paper's scene tracks to 0.016–0.018 mm tip RMS
+    // over seeds (track_pipeline.rs; README 0.016 mm); the bar, 0.1 mm, let a 5×
+    // regression pass.
+    let (raw, smoothed) = (
+        summary["raw_tip_error_rms_mm"].as_f64().unwrap(),
+        summary["smoothed_tip_error_rms_mm"].as_f64().unwrap(),
+    );
+    assert!(raw < 0.035, "raw tip RMS {raw} mm");
+    assert!(smoothed < 0.035, "smoothed tip RMS {smoothed} mm");
     // Each frame's predicted uncertainty tells the size of the actual error (track_pipeline
     // derives the bounds).
     let told = summary["predicted_tip_std_rms_mm"].as_f64().unwrap()

@@ -223,8 +223,9 @@ fn smooth_refuses_to_overwrite_its_input_and_a_wrong_extension() {
     assert_eq!(names(dir.path()), ["raw.csv"]);
 }
 
-/// SIGINT while `smooth` writes a large output: the old output stays whole and no temporary is
-/// left (R7: a 152 MB hidden temporary stayed).
+/// SIGINT (130) and SIGTERM (143) while `smooth` writes a large output: the old output stays
+/// whole, no temporary is left (R7: a 152 MB hidden temporary stayed), and one line says which
+/// signal ended it (after SIGTERM every command exited 130 and said nothing: second campaign).
 #[test]
 fn an_interrupt_removes_the_temporaries_and_keeps_the_old_output() {
     let dir = tempfile::tempdir().unwrap();
@@ -232,44 +233,50 @@ fn an_interrupt_removes_the_temporaries_and_keeps_the_old_output() {
     // 300,000 rows (about 45 MB of output): its temporary lives long enough to be seen.
     write_stroke(&raw, 300_000);
     let out = dir.path().join("smooth.csv");
-    std::fs::write(&out, "the previous output\n").unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_teachcam"))
-        .args(["smooth", s(&raw), "--method", "spline", "-o", s(&out)])
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let temporary = format!(".smooth.csv.teachcam-tmp-{}", child.id());
-    let start = Instant::now();
-    let mut seen = false;
-    while start.elapsed() < Duration::from_secs(120) {
-        if names(dir.path()).contains(&temporary) {
-            seen = true;
-            break;
+    for (signal, code, name) in [("-INT", 130, "SIGINT"), ("-TERM", 143, "SIGTERM")] {
+        std::fs::write(&out, "the previous output\n").unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_teachcam"))
+            .args(["smooth", s(&raw), "--method", "spline", "-o", s(&out)])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let temporary = format!(".smooth.csv.teachcam-tmp-{}", child.id());
+        let start = Instant::now();
+        let mut seen = false;
+        while start.elapsed() < Duration::from_secs(120) {
+            if names(dir.path()).contains(&temporary) {
+                seen = true;
+                break;
+            }
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+            std::thread::sleep(Duration::from_micros(200));
         }
-        if child.try_wait().unwrap().is_some() {
-            break;
+        assert!(seen, "{name}: the temporary {temporary} never appeared");
+        let killed = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        let ended = child.wait_with_output().unwrap();
+        let said = String::from_utf8_lossy(&ended.stderr);
+        let left = names(dir.path());
+        if ended.status.code() == Some(code) {
+            assert_eq!(
+                std::fs::read_to_string(&out).unwrap(),
+                "the previous output\n",
+                "{name}"
+            );
+            assert_eq!(said.trim().lines().count(), 1, "{name}: {said}");
+            assert!(said.contains(name), "{name}: {said}");
+        } else {
+            // The signal came after the rename: the new output is whole.
+            assert!(ended.status.success(), "{name}: {:?} {said}", ended.status);
+            assert!(std::fs::read_to_string(&out).unwrap().starts_with("frame,"));
         }
-        std::thread::sleep(Duration::from_micros(200));
+        assert_eq!(left, ["raw.csv", "smooth.csv"], "{name}: {:?}", ended.status);
     }
-    assert!(seen, "the temporary {temporary} never appeared");
-    let killed = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
-    let status = child.wait().unwrap();
-    let left = names(dir.path());
-    if status.code() == Some(130) {
-        assert_eq!(
-            std::fs::read_to_string(&out).unwrap(),
-            "the previous output\n"
-        );
-    } else {
-        // The signal came after the rename: the new output is whole.
-        assert!(status.success(), "{status:?}");
-        assert!(std::fs::read_to_string(&out).unwrap().starts_with("frame,"));
-    }
-    assert_eq!(left, ["raw.csv", "smooth.csv"], "{status:?}");
 }
 
 #[test]

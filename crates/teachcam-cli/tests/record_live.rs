@@ -256,3 +256,32 @@ fn wrong_flags_are_usage_errors_naming_the_flag() {
         stderr(&out)
     );
 }
+
+/// SIGTERM (a service manager's stop) ends `live` as Ctrl-C does, after the frame set in hand
+/// and with its summary, but with SIGTERM's status, 143, and a line saying so (it was 130 and
+/// silent before: second campaign).
+#[test]
+fn live_ends_on_sigterm_with_its_status_and_a_line() {
+    let child = Command::new(env!("CARGO_BIN_EXE_teachcam"))
+        .args([
+            "live", "--source", "sim:paper", "--fps", "30", "--seconds", "120",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let started = std::time::Instant::now();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        started.elapsed().as_secs() < 60,
+        "live went on after SIGTERM"
+    );
+    assert_eq!(out.status.code(), Some(143), "{}", stderr(&out));
+    assert!(stderr(&out).contains("SIGTERM"), "{}", stderr(&out));
+}

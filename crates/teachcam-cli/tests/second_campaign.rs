@@ -6,19 +6,24 @@
     reason = "a test fails loudly on a broken fixture"
 )]
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 #[path = "support/run.rs"]
 mod run;
 use run::teachcam;
 
 fn simulate(out: &Path) {
+    simulate_frames(out, 10);
+}
+
+fn simulate_frames(out: &Path, frames: usize) {
+    let frames = frames.to_string();
     let done = teachcam(&[
         "simulate",
         "--scenario",
         "paper",
         "--frames",
-        "10",
+        &frames,
         "--seed",
         "8",
         "--out",
@@ -65,20 +70,8 @@ fn a_recording_json_that_is_not_the_rate_object_is_refused() {
     }
 }
 
-fn repro(name: &str) -> Option<std::path::PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/repro/R8_second_campaign")
-        .join(name);
-    if path.exists() {
-        return Some(path);
-    }
-    assert!(
-        std::env::var("CI").as_deref() != Ok("true"),
-        "{} is missing under CI",
-        path.display()
-    );
-    eprintln!("skipped: {} is not there", path.display());
-    None
+fn repro(name: &str) -> Option<PathBuf> {
+    teachcam_testdata::shared_repro("R8_second_campaign").map(|dir| dir.join(name))
 }
 
 /// F1: robot points in metres against camera points in millimetres, or a mirrored set, gave
@@ -107,7 +100,7 @@ fn align_refuses_a_unit_mix_up_and_a_mirror_image() {
     }
 }
 
-/// F2: `timestamps.csv` all equal, beyond double precision (1e18 + i/30), or in milliseconds
+/// F2: `timestamps.csv` all equal, beyond double precision (1e18 + i/30, 1e12 + i/30), or in milliseconds
 /// under a 30 fps `recording.json` gave exit 0 with times 0, 0, 0 or frame 1 at 33.3 s. Each
 /// is refused naming the file, the camera and the frame.
 #[test]
@@ -130,10 +123,15 @@ fn timestamps_that_do_not_increase_or_disagree_with_the_rate_are_refused() {
         }
         std::fs::write(rec.join("timestamps.csv"), text).unwrap();
     };
-    let cases: [(&dyn Fn(usize) -> f64, &str); 3] = [
+    let cases: [(&dyn Fn(usize) -> f64, &str); 4] = [
         (&|_| 0.0, "times must increase"),
         (
             &|i| 1e18 + i as f64 / 30.0,
+            "beyond what double precision tells apart",
+        ),
+        // Increasing, but rounded to 0.12 ms: over a thousandth of a frame step.
+        (
+            &|i| 1e12 + i as f64 / 30.0,
             "beyond what double precision tells apart",
         ),
         (&|i| i as f64 * 1000.0 / fps, "look like milliseconds"),
@@ -301,4 +299,151 @@ fn reserved_program_names_and_missing_extensions_are_refused_or_prefixed() {
         assert!(message.contains(says), "{output}: {message}");
         assert!(!dir.path().join(output).exists(), "{output}");
     }
+}
+
+fn track(rec: &Path, rig: &Path, tool: &Path, out: &Path) -> std::process::Output {
+    teachcam(&[
+        "track",
+        rec.to_str().unwrap(),
+        "--rig",
+        rig.to_str().unwrap(),
+        "--tool",
+        tool.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ])
+}
+
+fn fps_of(rec: &Path) -> f64 {
+    let info: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(rec.join("recording.json")).unwrap())
+            .unwrap();
+    info["fps"].as_f64().unwrap()
+}
+
+/// F2: cam1's times half a period late gave 54 rows for a 40-frame recording, the frame
+/// numbers no longer the recording's indices. Frame i of every camera stays row i (0-based,
+/// CONTRACT), and the offset is said.
+#[test]
+fn a_camera_stamped_half_a_period_late_keeps_the_recording_indices_and_is_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    simulate_frames(&rec, 40);
+    let fps = fps_of(&rec);
+    let mut text = String::from("camera,frame,time_s\n");
+    for camera in ["cam0", "cam1", "cam2"] {
+        let late = if camera == "cam1" { 0.5 } else { 0.0 };
+        for i in 0..40 {
+            text.push_str(&format!("{camera},{i},{}\n", (i as f64 + late) / fps));
+        }
+    }
+    std::fs::write(rec.join("timestamps.csv"), text).unwrap();
+    let out = dir.path().join("t.csv");
+    let done = track(&rec, &rec.join("rig.json"), &rec.join("tool.json"), &out);
+    let message = String::from_utf8_lossy(&done.stderr);
+    assert!(done.status.success(), "{message}");
+    let said = format!("{:+.3} ms", 500.0 / fps);
+    assert!(
+        message.contains("timestamps.csv") && message.contains("cam1") && message.contains(&said),
+        "{said}: {message}"
+    );
+    let written = teachcam::io::trajectory::read_trajectory(&out).unwrap();
+    let frames: Vec<usize> = written.samples.iter().map(|s| s.frame.0).collect();
+    assert_eq!(frames, (0..40).collect::<Vec<_>>(), "{message}");
+}
+
+/// F5: a rig camera whose calibration cannot see the volume (fx 1e300, k1 1e6, or placed on
+/// another camera; cx 1e7 is `conductor_cli`'s) was dropped without a word. `track` names it
+/// with the blobs it saw, no frame is `ok`, and `doctor` points at its calibration.
+#[test]
+fn a_camera_whose_calibration_sees_nothing_is_named_flagged_and_doctored() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    simulate_frames(&rec, 40);
+    let rig: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(rec.join("rig.json")).unwrap()).unwrap();
+    let cam0 = rig["cameras"][0].clone();
+    let cases: [(&str, &dyn Fn(&mut serde_json::Value)); 3] = [
+        ("fx", &|c| {
+            c["fx"] = 1e300.into();
+            c["fy"] = 1e300.into();
+        }),
+        ("k1", &|c| c["distortion"][0] = 1e6.into()),
+        ("on cam0", &|c| {
+            c["rotation"] = cam0["rotation"].clone();
+            c["translation"] = cam0["translation"].clone();
+        }),
+    ];
+    for (case, change) in cases {
+        let mut bad = rig.clone();
+        change(&mut bad["cameras"][1]);
+        let path = dir.path().join("rig_bad.json");
+        std::fs::write(&path, bad.to_string()).unwrap();
+        let out = dir.path().join("t.csv");
+        let done = track(&rec, &path, &rec.join("tool.json"), &out);
+        let message = String::from_utf8_lossy(&done.stderr);
+        assert!(done.status.success(), "{case}: {message}");
+        assert!(
+            message.contains("camera cam1 sees nothing of the volume")
+                && message.contains("blobs"),
+            "{case}: {message}"
+        );
+        let written = teachcam::io::trajectory::read_trajectory(&out).unwrap();
+        assert!(
+            written.samples.iter().filter(|s| s.pose.is_some()).count() >= 30
+                && written
+                    .samples
+                    .iter()
+                    .all(|s| s.status != teachcam::trajectory::Status::Ok),
+            "{case}: a frame without cam1 is ok"
+        );
+        let doctor = teachcam(&[
+            "doctor",
+            rec.to_str().unwrap(),
+            "--rig",
+            path.to_str().unwrap(),
+            "--tool",
+            rec.join("tool.json").to_str().unwrap(),
+        ]);
+        let report = format!(
+            "{}{}",
+            String::from_utf8_lossy(&doctor.stdout),
+            String::from_utf8_lossy(&doctor.stderr)
+        );
+        assert!(
+            report.contains("camera cam1 sees nothing of the volume")
+                && report.contains("check its calibration"),
+            "{case}: {report}"
+        );
+    }
+}
+
+/// F6: a tip in metres beside markers in millimetres lies inside marker 0's sphere and was
+/// accepted: refused naming the file and the marker, nothing written.
+#[test]
+fn a_tip_inside_a_marker_sphere_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    simulate(&rec);
+    let mut tool: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(rec.join("tool.json")).unwrap()).unwrap();
+    let tip: Vec<f64> = tool["tip"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap() / 1000.0)
+        .collect();
+    tool["tip"] = tip.into();
+    let path = dir.path().join("tool_m.json");
+    std::fs::write(&path, tool.to_string()).unwrap();
+    let out = dir.path().join("t.csv");
+    let done = track(&rec, &rec.join("rig.json"), &path, &out);
+    let message = String::from_utf8_lossy(&done.stderr);
+    assert_eq!(done.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains("tool_m.json") && message.contains("inside marker 0's sphere"),
+        "{message}"
+    );
+    assert_eq!(message.trim().lines().count(), 1, "{message}");
+    assert!(!out.exists(), "nothing written");
 }

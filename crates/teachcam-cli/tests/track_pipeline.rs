@@ -70,8 +70,13 @@ fn rms(errors: &[f64]) -> f64 {
 }
 
 #[test]
-fn paper_and_occluded_recordings_are_tracked_within_a_tenth_of_a_millimetre() {
-    for (scenario, limit_mm) in [("paper", 0.10), ("occluded", 0.15)] {
+fn paper_and_occluded_recordings_are_tracked_within_twice_the_noise_models_error() {
+    // Bounds from the noise model, about twice what it gives: over seeds 4, 5, 6 (60 frames,
+    // this binary, 2026-12-06) the tip RMS was 0.0162–0.0171 mm on the paper and 0.0174–
+    // 0.0181 mm occluded, the worst frame 0.032–0.038 mm (notes/second-campaign.md); the
+    // issues' acceptance bars were 0.10 / 0.15 mm RMS and 1 mm worst, which a 5× regression
+    // passed.
+    for (scenario, limit_mm) in [("paper", 0.035), ("occluded", 0.036)] {
         let dir = tempfile::tempdir().unwrap();
         // 60 of the 120 frames hold all but the last occlusion event of `occluded`.
         simulate(scenario, dir.path(), 60);
@@ -124,7 +129,7 @@ fn paper_and_occluded_recordings_are_tracked_within_a_tenth_of_a_millimetre() {
             !diagnostics.contains("neighbours' path"),
             "{scenario}: real motion flagged as a jump:\n{diagnostics}"
         );
-        assert!(worst < 1.0, "{scenario}: a wrong pose ({worst} mm)");
+        assert!(worst < 0.08, "{scenario}: a wrong pose ({worst} mm)");
         assert!(
             (0.75..1.33).contains(&told),
             "{scenario}: tip_std_mm is {told} of the error"

@@ -42,12 +42,11 @@ fn ffmpeg_available() -> bool {
         .arg("-version")
         .output()
         .is_ok_and(|o| o.status.success());
-    assert!(
-        found || std::env::var_os("CI").is_none(),
-        "ffmpeg missing under CI (.ci/run installs it)"
-    );
     if !found {
-        eprintln!("skipped: ffmpeg not installed (apt-get install ffmpeg)");
+        teachcam_testdata::skipped(
+            "video",
+            "ffmpeg/ffprobe not installed (apt-get install ffmpeg; .ci/run installs it)",
+        );
     }
     found
 }

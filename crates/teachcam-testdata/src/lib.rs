@@ -2,34 +2,51 @@
 //! chessboard photographs, Zhang's data, C3D files...), the reproducers of past wrong answers
 //! (`../shared/repro`), and the independent checkers they run programs through
 //! (`rapidchecker`). One function serves every test so that they all treat a missing folder or
-//! checker the same way: under CI (`CI` set) it is a failure, elsewhere the test says it was
-//! skipped and why.
+//! checker the same way: under CI ([`under_ci`]: `CI` is `true`) it is a failure, elsewhere the
+//! test says it was skipped and why ([`skipped`]).
 
 pub mod browser;
 
 use std::path::PathBuf;
 
-/// `../shared/data/<folder>` (or the data root for `""`), or `None` when it is missing and
-/// `CI` is not set; the caller then returns early, its test skipped.
+/// True under CI: the environment variable `CI` is `true` (as CI services set it, and as
+/// `.ci/run` exports it). The one rule every skip guard follows.
+#[must_use]
+pub fn under_ci() -> bool {
+    std::env::var("CI").as_deref() == Ok("true")
+}
+
+/// A test (or one check of it) that cannot run here because `why`: a failure under CI
+/// ([`under_ci`]), elsewhere a line saying it was skipped.
 ///
 /// # Panics
-/// When the folder is missing and `CI` is set: CI always has the data beside its clone.
+/// Under CI.
+#[expect(clippy::print_stderr, reason = "a skipped test says why")]
+pub fn skipped(test: &str, why: &str) {
+    assert!(!under_ci(), "{test}: {why} (CI is true, so this is a failure)");
+    eprintln!("{test}: skipped: {why}");
+}
+
+/// `../shared/data/<folder>` (or the data root for `""`), or `None` when it is missing and not
+/// [`under_ci`]; the caller then returns early, its test skipped.
+///
+/// # Panics
+/// When the folder is missing under CI: CI always has the data beside its clone.
 #[must_use]
 pub fn shared_data(folder: &str) -> Option<PathBuf> {
     shared("data", folder)
 }
 
 /// `../shared/repro/<folder>` (a reproducer: its input files and `README.txt`), or `None`
-/// when it is missing and `CI` is not set, as [`shared_data`].
+/// when it is missing and not [`under_ci`], as [`shared_data`].
 ///
 /// # Panics
-/// When the folder is missing and `CI` is set.
+/// When the folder is missing under CI.
 #[must_use]
 pub fn shared_repro(folder: &str) -> Option<PathBuf> {
     shared("repro", folder)
 }
 
-#[expect(clippy::print_stderr, reason = "a skipped test says why")]
 fn shared(kind: &str, folder: &str) -> Option<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared")
@@ -38,12 +55,10 @@ fn shared(kind: &str, folder: &str) -> Option<PathBuf> {
     if dir.is_dir() {
         return Some(dir);
     }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "test {kind} folder {} is missing (CI is set, so this is a failure)",
-        dir.display()
+    skipped(
+        &format!("test {kind} folder"),
+        &format!("{} is missing", dir.display()),
     );
-    eprintln!("skipped: test {kind} folder {} is missing", dir.display());
     None
 }
 
@@ -73,12 +88,9 @@ fn rapidchecker_python() -> Option<PathBuf> {
 #[expect(clippy::print_stderr, reason = "a skipped check says why")]
 pub fn rapidchecker(test: &str, files: &[PathBuf]) -> Option<Result<(), String>> {
     let Some(python) = rapidchecker_python() else {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "{test}: rapidchecker is not installed (.ci/run installs it)"
-        );
-        eprintln!(
-            "{test}: RAPID not parsed: rapidchecker not installed (pip install rapidchecker)"
+        skipped(
+            &format!("{test}: RAPID parse"),
+            "rapidchecker is not installed (pip install rapidchecker; .ci/run installs it)",
         );
         return None;
     };

@@ -11,7 +11,9 @@
 //!   to the epipolar line within a wide window, the next candidate `match_ratio` times
 //!   farther: unambiguous matches), the triangulation and registration residuals, how often
 //!   the tool's distances appear among the 3-D points;
-//! - **findings**, each with its advice: a camera that disagrees with the others (with three or
+//! - **findings**, each with its advice: a camera whose blobs take part in no point while the
+//!   others pose the tool (its calibration sees nothing of the volume; `track` flags its
+//!   frames), a camera that disagrees with the others (with three or
 //!   more cameras: the camera shared by every disagreeing pair, no pair without it
 //!   disagreeing), a pair that disagrees (two cameras cannot say which one is off), blobs too
 //!   small for sub-pixel centres, blobs less round than the detector's cut, a tool whose
@@ -28,6 +30,7 @@ use serde::Serialize;
 use crate::camera::{Rig, epipolar_line};
 use crate::detect::Blob;
 use crate::geometry::{CameraId, Pixel};
+use crate::pipeline::rules::{OUT_AFTER_POSED_FRAMES, blobs_used};
 use crate::tool::Tool;
 use crate::track::{FrameTrack, Lost};
 
@@ -137,6 +140,10 @@ pub struct CameraReport {
     pub roundness: Option<Spread>,
     /// Fraction of blobs under the detector's roundness cut.
     pub below_roundness_cut: f64,
+    /// Blobs it saw over the recording.
+    pub blobs_seen: usize,
+    /// Of those, the blobs that took part in a marker's point of a posed frame.
+    pub blobs_used: usize,
     /// The marker's predicted image diameter at the tracked distances, pixels.
     pub predicted_diameter_px: Option<f64>,
     /// Distance from the camera to the tool in tracked frames (median), millimetres.
@@ -159,6 +166,16 @@ pub struct PairReport {
 /// Something the data shows, with what to do about it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub enum Finding {
+    /// A camera whose blobs take part in no point while the others pose the tool: its
+    /// calibration does not see the volume the others see.
+    CameraSeesNothing {
+        /// The camera.
+        camera: String,
+        /// Blobs it saw.
+        blobs_seen: usize,
+        /// Frames the other cameras posed.
+        posed_frames: usize,
+    },
     /// One camera disagrees with every other while the others agree.
     CameraDisagrees {
         /// The camera.
@@ -211,6 +228,14 @@ pub enum Finding {
 impl std::fmt::Display for Finding {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
+            Self::CameraSeesNothing {
+                camera,
+                blobs_seen,
+                posed_frames,
+            } => write!(
+                f,
+                "camera {camera} sees nothing of the volume: none of its {blobs_seen} blobs takes part in a marker's point in {posed_frames} frames the others posed; check its calibration in the rig file (fx/fy, cx/cy, distortion, image_size, its pose) or recalibrate {camera}"
+            ),
             Self::CameraDisagrees {
                 camera,
                 epipolar_px,
@@ -325,7 +350,20 @@ pub fn diagnose(
         .iter()
         .filter_map(|t| t.outcome.as_ref().ok().map(|p| p.rms_mm))
         .collect();
-    let mut findings = calibration_findings(rig, &pairs);
+    let mut findings: Vec<Finding> = if posed >= OUT_AFTER_POSED_FRAMES {
+        cameras
+            .iter()
+            .filter(|c| c.blobs_used == 0)
+            .map(|c| Finding::CameraSeesNothing {
+                camera: c.camera.clone(),
+                blobs_seen: c.blobs_seen,
+                posed_frames: posed,
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    findings.extend(calibration_findings(rig, &pairs));
     for c in &cameras {
         if let Some(d) = c
             .diameter_px
@@ -380,6 +418,7 @@ fn camera_reports(
     tracks: &[FrameTrack],
     config: &DoctorConfig,
 ) -> Vec<CameraReport> {
+    let used = blobs_used(tracks);
     rig.iter()
         .map(|(id, camera)| {
             let all: Vec<&Blob> = blobs.iter().filter_map(|f| f.get(&id)).flatten().collect();
@@ -409,6 +448,8 @@ fn camera_reports(
                 diameter_px: Spread::of(&all.iter().map(|b| 2.0 * b.radius_px).collect::<Vec<_>>()),
                 roundness: Spread::of(&all.iter().map(|b| b.roundness).collect::<Vec<_>>()),
                 below_roundness_cut: below as f64 / all.len().max(1) as f64,
+                blobs_seen: all.len(),
+                blobs_used: used.get(&id).copied().unwrap_or(0),
                 predicted_diameter_px: distance_mm
                     .map(|d| camera.intrinsics.fx * tool.marker_diameter_mm / d),
                 distance_mm,

@@ -187,12 +187,41 @@ pub fn write_atomically_with(
     set.commit().map(|_| ())
 }
 
-/// Parses JSON into `T`, naming the file and serde's line/column on failure.
+/// Parses JSON into `T`, naming the file and serde's line/column on failure (an unknown key
+/// is named with the keys expected). Every file read through it is one JSON object: a file
+/// that is valid JSON of another shape at the top level (`[1000]`, `30`, `"rig"`) is refused
+/// saying so, rather than with the name of a Rust type.
 pub(crate) fn parse_json<T: serde::de::DeserializeOwned>(
     path: &Path,
     text: &str,
 ) -> Result<T, FileError> {
-    serde_json::from_str(text).map_err(|e| FileError::invalid(path, format!("{e}")))
+    serde_json::from_str(text).map_err(|e| {
+        let other_shape = serde_json::from_str::<serde_json::Value>(text)
+            .ok()
+            .filter(|v| !v.is_object());
+        match other_shape {
+            Some(value) => FileError::invalid(
+                path,
+                format!(
+                    "expected a JSON object ({{\"key\": value, ...}}) at the top level, got {}",
+                    json_kind(&value)
+                ),
+            ),
+            None => FileError::invalid(path, format!("{e}")),
+        }
+    })
+}
+
+/// What a JSON value is, as a message names it.
+pub(crate) fn json_kind(value: &serde_json::Value) -> &'static str {
+    match value {
+        serde_json::Value::Null => "null",
+        serde_json::Value::Bool(_) => "a boolean",
+        serde_json::Value::Number(_) => "a number",
+        serde_json::Value::String(_) => "a string",
+        serde_json::Value::Array(_) => "an array",
+        serde_json::Value::Object(_) => "an object",
+    }
 }
 
 /// `value` as pretty JSON with a final newline; `path` names the file it is for in errors.

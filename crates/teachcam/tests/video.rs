@@ -32,12 +32,11 @@ fn ffmpeg_available() -> bool {
             .output()
             .is_ok_and(|o| o.status.success())
     });
-    assert!(
-        found || std::env::var_os("CI").is_none(),
-        "ffmpeg/ffprobe missing under CI (.ci/run installs them)"
-    );
     if !found {
-        eprintln!("skipped: ffmpeg/ffprobe not installed (apt-get install ffmpeg)");
+        teachcam_testdata::skipped(
+            "video",
+            "ffmpeg/ffprobe not installed (apt-get install ffmpeg; .ci/run installs it)",
+        );
     }
     found
 }

@@ -205,9 +205,11 @@ fn report_text(report: &Report) -> String {
     for c in &report.cameras {
         let _ = writeln!(
             out,
-            "  {}: blobs/frame {}; diameter {}; roundness {}; {:.0} % under the roundness cut{}",
+            "  {}: blobs/frame {} ({} seen, {} in the tool's points); diameter {}; roundness {}; {:.0} % under the roundness cut{}",
             c.camera,
             c.blobs_per_frame.map_or(0.0, |s| s.median),
+            c.blobs_seen,
+            c.blobs_used,
             spread(c.diameter_px, "px"),
             spread(c.roundness, ""),
             100.0 * c.below_roundness_cut,

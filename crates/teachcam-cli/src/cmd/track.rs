@@ -226,6 +226,9 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(TrackRun, Vec<PathBuf>)> {
         crate::recording::pipeline_error(e, &args.tool)
     })?;
     progress.finish();
+    if args.detections.is_none() {
+        say_stamp_offsets(&args.recording, args.detect.fps)?;
+    }
     for out in &run.cameras_out {
         crate::announce::warn(&out.to_string());
     }
@@ -264,4 +267,23 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(TrackRun, Vec<PathBuf>)> {
         },
     )?;
     Ok((run, written))
+}
+
+/// The cameras whose `timestamps.csv` stamps lie a tenth of a period or more from the others':
+/// frame `i` of every camera stays set `i` (row `i` of the trajectory), the set's time the
+/// mean, so the offset is said rather than acted on.
+fn say_stamp_offsets(recording: &Path, fps: Option<f64>) -> anyhow::Result<()> {
+    let clock = recording_clock(recording, fps).rejected()?;
+    let period_s = 1.0 / clock.fps;
+    for (camera, offset) in clock.stamp_offsets() {
+        if offset.abs() >= 0.1 * period_s {
+            crate::announce::warn(&format!(
+                "{}: camera {camera}'s times lie {:+.3} ms ({:+.2} of a frame period) from the other cameras'; frame i of every camera is kept as row i (its time the cameras' mean)",
+                recording.join(teachcam::io::recording::TIMESTAMPS_FILE).display(),
+                1e3 * offset,
+                offset / period_s
+            ));
+        }
+    }
+    Ok(())
 }

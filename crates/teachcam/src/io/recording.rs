@@ -298,6 +298,7 @@ pub fn list_recording(
                     format!("no times for camera {}", camera.name),
                 ));
             };
+            check_times_resolution(&timestamps_path, &camera.name, camera_times)?;
             if let Some(fps) = fps {
                 check_times_against_rate(&timestamps_path, &camera.name, camera_times, fps)?;
             }
@@ -450,6 +451,31 @@ fn check_times_against_rate(
                 } else {
                     ""
                 }
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The finest a frame time must be told apart, as a fraction of the frame step: a thousandth
+/// of a period (33 µs at 30 fps) keeps the times' rounding far under the cameras' own jitter.
+const TIME_RESOLUTION_OF_STEP: f64 = 1e-3;
+
+/// A camera's frame times are held in double precision finely enough: the spacing of doubles
+/// at the largest time is at most [`TIME_RESOLUTION_OF_STEP`] of the median frame step (times
+/// such as 1e13 + i/30, seconds since some far epoch, still increase but are rounded to 2 ms).
+fn check_times_resolution(path: &Path, camera: &str, times: &[f64]) -> Result<(), FileError> {
+    let steps: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+    let Some(step) = crate::stats::median(&steps) else {
+        return Ok(());
+    };
+    let largest = times.iter().fold(0.0_f64, |m, t| m.max(t.abs()));
+    let spacing = largest * f64::EPSILON;
+    if spacing > TIME_RESOLUTION_OF_STEP * step {
+        return Err(FileError::invalid(
+            path,
+            format!(
+                "camera {camera}: times up to {largest:e} s are beyond what double precision tells apart at frames {step:.6} s apart (rounded to {spacing:.2e} s, over {TIME_RESOLUTION_OF_STEP} of a frame step): give seconds from the recording's start"
             ),
         ));
     }

@@ -49,8 +49,32 @@ pub fn read_tool(path: &Path) -> Result<Tool, FileError> {
         .map(|m| Point3::new(m[0], m[1], m[2]))
         .collect();
     let tool_from_tcp = pose_from_parts(nalgebra::Vector3::from(file.tip), rotation);
-    Tool::new(file.name, file.marker_diameter_mm, markers, tool_from_tcp)
-        .map_err(|e| FileError::invalid(path, e.to_string()))
+    let tool = Tool::new(file.name, file.marker_diameter_mm, markers, tool_from_tcp)
+        .map_err(|e| FileError::invalid(path, e.to_string()))?;
+    check_tip_outside_markers(path, &tool)?;
+    Ok(tool)
+}
+
+/// The tip is where the tool touches the work, outside every marker's sphere: a tip inside one
+/// (a tip in metres beside markers in millimetres lands there) is refused. A tip exactly at a
+/// marker's centre is a frame without a tip (a ground frame, a tool built from a C3D file
+/// whose origin is a marker) and is taken.
+fn check_tip_outside_markers(path: &Path, tool: &Tool) -> Result<(), FileError> {
+    let tip = tool.tip_in_tool();
+    let radius_mm = 0.5 * tool.marker_diameter_mm;
+    for (i, marker) in tool.markers_in_tool.iter().enumerate() {
+        let distance_mm = (tip - marker).norm();
+        if distance_mm > 0.0 && distance_mm < radius_mm {
+            return Err(FileError::invalid(
+                path,
+                format!(
+                    "tip [{}, {}, {}] lies inside marker {i}'s sphere ({distance_mm:.3} mm from its centre, radius {radius_mm} mm): the tip must be outside the spheres, in millimetres (was it given in metres?)",
+                    tip.x, tip.y, tip.z
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Writes a tool file whole.
@@ -137,6 +161,12 @@ mod tests {
                 "line 1",
             ),
             ("not json", "tool.json"),
+            (
+                // The tip in metres (0.19 m along -z) beside markers in millimetres: inside
+                // marker 0's sphere (second campaign F6).
+                r#"{"name": "b", "marker_diameter_mm": 10, "markers": [[0,0,0],[50,0,0],[0,50,0]], "tip": [0.005,0.02,-0.19]}"#,
+                "inside marker 0's sphere",
+            ),
         ];
         for (text, needle) in cases {
             let message = read_tool(&write(dir.path(), text)).unwrap_err().to_string();

@@ -94,14 +94,7 @@ pub fn cameras_out(
     if posed < OUT_AFTER_POSED_FRAMES {
         return out;
     }
-    let mut used: BTreeMap<CameraId, usize> = BTreeMap::new();
-    for track in tracks.iter().filter(|t| t.outcome.is_ok()) {
-        for point in track.labels.values().filter_map(|&p| track.points.get(p)) {
-            for camera in point.views.keys() {
-                *used.entry(*camera).or_default() += 1;
-            }
-        }
-    }
+    let used = blobs_used(tracks);
     for (id, camera) in rig.iter() {
         if missing.contains(&camera.name) || used.get(&id).copied().unwrap_or(0) > 0 {
             continue;
@@ -120,6 +113,21 @@ pub fn cameras_out(
         });
     }
     out
+}
+
+/// Per camera, the blobs that took part in a marker's point of a posed frame of `tracks` (a
+/// camera absent from the map took part in none).
+#[must_use]
+pub fn blobs_used(tracks: &[FrameTrack]) -> BTreeMap<CameraId, usize> {
+    let mut used: BTreeMap<CameraId, usize> = BTreeMap::new();
+    for track in tracks.iter().filter(|t| t.outcome.is_ok()) {
+        for point in track.labels.values().filter_map(|&p| track.points.get(p)) {
+            for camera in point.views.keys() {
+                *used.entry(*camera).or_default() += 1;
+            }
+        }
+    }
+    used
 }
 
 /// Marks a tracked frame with the cameras out of use (each a [`Flag::CameraOut`]).

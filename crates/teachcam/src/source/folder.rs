@@ -4,7 +4,10 @@
 //! Frame `i` of every camera belongs to set `i` (the frames of a recording are triggered
 //! together, or were paired when recorded), and every camera must have as many frames as the
 //! others. When `timestamps.csv` gives each frame's exposure time, the times are carried with
-//! the frames, and cameras of different lengths are paired by time instead ([`super::pairing`]).
+//! the frames (a set's time is their mean), and frame `i` stays set `i` whatever the times say
+//! (a camera whose stamps lie apart from the others' is said by
+//! [`RecordingClock::stamp_offsets`], not re-paired); only cameras of different lengths are
+//! paired by time ([`super::pairing`]).
 //! The rate is `--fps`, else `recording.json`, else the videos' common rate, else 30 Hz.
 
 use std::collections::BTreeMap;
@@ -79,6 +82,30 @@ impl RecordingClock {
             times.iter().sum::<f64>() / times.len() as f64
         }
     }
+
+    /// Per camera of `timestamps.csv`, the median over frames of its time minus the frame's
+    /// median time over every camera, seconds: how far its stamps lie from the others' (of
+    /// three cameras, one stamped half a period late reads `0.5 / fps`). Empty without
+    /// timestamps or with one camera.
+    #[must_use]
+    pub fn stamp_offsets(&self) -> BTreeMap<String, f64> {
+        let Some(times) = self.timestamps.as_ref().filter(|t| t.len() > 1) else {
+            return BTreeMap::new();
+        };
+        let frames = times.values().map(Vec::len).min().unwrap_or(0);
+        let middle: Vec<f64> = (0..frames)
+            .filter_map(|i| {
+                crate::stats::median(&times.values().map(|t| t[i]).collect::<Vec<f64>>())
+            })
+            .collect();
+        times
+            .iter()
+            .filter_map(|(camera, t)| {
+                let apart: Vec<f64> = middle.iter().zip(t).map(|(m, t)| t - m).collect();
+                Some((camera.clone(), crate::stats::median(&apart)?))
+            })
+            .collect()
+    }
 }
 
 /// The clock of a recording folder: its rate, length and frame times (CONTRACT.md,
@@ -150,11 +177,21 @@ impl FolderSource {
             }
         }
         let fps = rate(listing.fps, &video_rates);
+        let len_hint = lengths
+            .iter()
+            .copied()
+            .collect::<Option<Vec<usize>>>()
+            .and_then(|l| l.into_iter().min());
+        let equal_lengths = lengths.windows(2).all(|w| w[0].is_some() && w[0] == w[1]);
         let pairer = listing.timestamps.as_ref().map(|_| {
             Pairer::new(
                 cameras.len(),
-                PairBy::Timestamp {
-                    period_s: 1.0 / fps,
+                if equal_lengths {
+                    PairBy::Sequence
+                } else {
+                    PairBy::Timestamp {
+                        period_s: 1.0 / fps,
+                    }
                 },
             )
         });
@@ -168,10 +205,7 @@ impl FolderSource {
             times: listing.timestamps,
             pairer,
             fps,
-            len_hint: lengths
-                .into_iter()
-                .collect::<Option<Vec<usize>>>()
-                .and_then(|l| l.into_iter().min()),
+            len_hint,
             next_index: 0,
             failed: false,
         })
