@@ -226,6 +226,9 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(TrackRun, Vec<PathBuf>)> {
         crate::recording::pipeline_error(e, &args.tool)
     })?;
     progress.finish();
+    if let Some(limits) = &run.detect_limits {
+        crate::announce::say(&limits.summary());
+    }
     for out in &run.cameras_out {
         crate::announce::warn(&out.to_string());
     }
