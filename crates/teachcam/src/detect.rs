@@ -38,6 +38,7 @@
 
 pub mod circle;
 pub mod components;
+pub mod learn;
 pub mod measure;
 pub mod repeatability;
 pub mod sphere;
@@ -116,6 +117,10 @@ pub enum Threshold {
     /// A pixel is foreground when its value is strictly above this level (OpenCV's
     /// `THRESH_BINARY`), in the image's own units (0–255 or 0–65535).
     Fixed(u32),
+    /// This many image units above each frame's background median, and never below
+    /// [`Threshold::Auto`]'s level: the threshold [`learn`] measures from the markers'
+    /// contrast, following the background from frame to frame.
+    AboveBackground(f64),
 }
 
 /// Which estimate of a blob's centre [`Blob::center`] holds.
@@ -452,6 +457,7 @@ fn region_blobs<P: Intensity>(
     let threshold = match cfg.threshold {
         Threshold::Auto => background.auto_threshold::<P>(),
         Threshold::Fixed(level) => level,
+        Threshold::AboveBackground(contrast) => background.threshold_above::<P>(contrast),
     };
     if threshold >= P::FULL_SCALE {
         return Ok(Vec::new());

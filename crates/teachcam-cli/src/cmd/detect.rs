@@ -3,16 +3,22 @@
 use std::path::{Path, PathBuf};
 
 use teachcam::io::{Output, check_outputs, write_atomically};
-use teachcam::pipeline::recording::DetectedRecording;
+use teachcam::pipeline::recording::{DetectedRecording, LimitsGiven, detect_learned};
+use teachcam::source::FrameSource;
+use teachcam::source::folder::FolderSource;
 
+use crate::Rejected;
 use crate::flags::detection::{DetectorFlags, configs};
-use crate::recording::detect_folder;
+use crate::progress::Progress;
 
 /// Find the marker blobs in every frame of a recording and write their sub-pixel centres.
 ///
-/// Each frame is thresholded (automatically from its background and noise unless
-/// `--threshold` is given), its 8-connected bright regions are measured, and the regions that
-/// are too small, too large or cut by the image border are left out. A region that is not
+/// The limits are measured from the recording first and printed in one line (each flag
+/// overrides its limit): from 40 frames spread over it, each camera's threshold (a third of
+/// the markers' contrast above each frame's background) and smallest blob (a quarter of the
+/// smallest markers' area: specks are not markers), then the roundness floor from the blobs
+/// of 60 frames. Each frame is thresholded, its 8-connected bright regions are measured, and
+/// the regions that are too small, too large or cut by the image border are left out. A region that is not
 /// round (markers whose images merged) is split when its markers come apart at half contrast
 /// with 2 px between their edges, and left out otherwise. Frames run in parallel.
 ///
@@ -54,9 +60,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     inputs.extend(args.options.rig.as_deref());
     inputs.extend(args.options.tool.as_deref());
     check_outputs(&[Output::csv(&args.output)], &inputs)?;
-    let recording = detect_folder(&args.recording, None, |cameras| {
-        configs(&args.options, cameras)
-    })?;
+    let source = FolderSource::open(&args.recording, None).rejected()?;
+    let setups = configs(&args.options, source.cameras())?;
+    let len = source.len_hint().unwrap_or(0) as u64;
+    drop(source);
+    let given = LimitsGiven {
+        min_area_px: args.options.min_area.is_some(),
+        min_roundness: args.options.min_roundness,
+    };
+    let progress = Progress::new("detect", len);
+    let (recording, limits) =
+        detect_learned(&args.recording, None, setups, given, &|| progress.tick()).rejected()?;
+    progress.finish();
+    crate::announce::say(&limits.summary());
     write_atomically(&args.output, csv_text(&recording).as_bytes())?;
     let blobs: usize = recording
         .sets

@@ -229,6 +229,9 @@ pub fn track_to_files(args: &Args) -> anyhow::Result<(TrackRun, Vec<PathBuf>)> {
     if args.detections.is_none() {
         say_stamp_offsets(&args.recording, args.detect.fps)?;
     }
+    if let Some(limits) = &run.detect_limits {
+        crate::announce::say(&limits.summary());
+    }
     for out in &run.cameras_out {
         crate::announce::warn(&out.to_string());
     }

@@ -32,9 +32,10 @@ pub struct DetectorFlags {
     /// Largest blob kept, pixels (default 40000, or from the rig and marker size).
     #[arg(long)]
     pub max_area: Option<usize>,
-    /// Smallest roundness kept, 0..1 (1 = disc; two touching equal discs have 0.5).
-    #[arg(long, default_value_t = 0.75, value_parser = crate::flags::unit_interval)]
-    pub min_roundness: f64,
+    /// Smallest roundness kept, 0..1 (1 = disc; two touching equal discs have 0.5). Default:
+    /// measured from the recording (`detect`), 0.75 (`repeatability`).
+    #[arg(long, value_parser = crate::flags::unit_interval)]
+    pub min_roundness: Option<f64>,
     /// Camera rig (rig.json): size limits and sphere-centre correction per camera.
     #[arg(long)]
     pub rig: Option<PathBuf>,
@@ -62,10 +63,11 @@ pub struct DetectorFlags {
 /// Rejected data when a file cannot be read or the rig lacks a camera of the recording; a
 /// usage error when a number is out of range.
 pub fn configs(args: &DetectorFlags, cameras: &[SourceCamera]) -> anyhow::Result<Vec<CameraSetup>> {
-    if !(args.min_roundness.is_finite() && (0.0..=1.0).contains(&args.min_roundness)) {
+    if let Some(r) = args.min_roundness
+        && !(r.is_finite() && (0.0..=1.0).contains(&r))
+    {
         return Err(anyhow::anyhow!(
-            "--min-roundness must be within 0..1, got {}",
-            args.min_roundness
+            "--min-roundness must be within 0..1, got {r}"
         ));
     }
     if !(args.near.is_finite() && args.far.is_finite() && 0.0 < args.near && args.near < args.far) {
@@ -114,7 +116,9 @@ pub fn configs(args: &DetectorFlags, cameras: &[SourceCamera]) -> anyhow::Result
                 _ => DetectConfig::default(),
             };
             cfg.method = args.method;
-            cfg.min_roundness = args.min_roundness;
+            if let Some(r) = args.min_roundness {
+                cfg.min_roundness = r;
+            }
             cfg.shot_noise_per_level = args.shot_noise;
             if let Some(t) = args.threshold {
                 cfg.threshold = Threshold::Fixed(t);

@@ -42,6 +42,20 @@ impl Background {
         let t = (self.level + margin).ceil();
         if t >= full { P::FULL_SCALE } else { t as u32 }
     }
+
+    /// `contrast` above the level, rounded up, never below [`Self::auto_threshold`] (noise
+    /// makes no blob) and at most full scale.
+    #[must_use]
+    pub fn threshold_above<P: Intensity>(&self, contrast: f64) -> u32 {
+        let full = f64::from(P::FULL_SCALE);
+        let t = (self.level + contrast).ceil();
+        let above = if t.is_nan() || t >= full {
+            P::FULL_SCALE
+        } else {
+            t.max(0.0) as u32
+        };
+        above.max(self.auto_threshold::<P>())
+    }
 }
 
 /// Background level and noise from a sparse sample of the image (module docs); zero for an

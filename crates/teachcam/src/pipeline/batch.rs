@@ -15,8 +15,7 @@ use std::path::{Path, PathBuf};
 
 use super::PipelineError;
 use super::recording::{
-    DetectOptions, DetectedRecording, detect_for_tracking, gates_from_sample,
-    recording_from_detections,
+    DetectLimits, DetectOptions, detect_for_tracking, gates_from_sample, recording_from_detections,
 };
 use super::rules::{CameraOut, FrameInput, cameras_out, mark_cameras_out, sample_of};
 use crate::camera::Rig;
@@ -101,6 +100,8 @@ pub struct TrackRun {
     pub cameras_out: Vec<CameraOut>,
     /// The recording's rate, frames per second.
     pub fps: f64,
+    /// The limits the frames were detected with; `None` for a detections file.
+    pub detect_limits: Option<DetectLimits>,
 }
 
 /// Where a run's files go: the trajectory, and optionally the markers, the diagnostics, the
@@ -175,7 +176,7 @@ pub fn track(
             },
         )?;
     }
-    let (recording, min_roundness, missing): (DetectedRecording, Gate, Vec<String>) = match input {
+    let (recording, min_roundness, missing, detect_limits) = match input {
         TrackInput::Recording(root) => {
             let detected = detect_for_tracking(
                 root,
@@ -189,12 +190,13 @@ pub fn track(
                 detected.recording,
                 detected.min_roundness,
                 detected.missing_cameras,
+                Some(detected.limits),
             )
         }
         TrackInput::Detections { detections, clock } => {
             let (recording, gate) =
                 recording_from_detections(detections, clock, rig, overrides.min_roundness)?;
-            (recording, gate, Vec::new())
+            (recording, gate, Vec::new(), None)
         }
     };
     let detected = recording.inputs(rig);
@@ -259,6 +261,7 @@ pub fn track(
         synchronised,
         cameras_out: out,
         fps: recording.fps,
+        detect_limits,
     })
 }
 

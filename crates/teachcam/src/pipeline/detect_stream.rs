@@ -7,6 +7,7 @@ use std::collections::VecDeque;
 use rayon::prelude::*;
 
 use super::{CameraSetup, PipelineError};
+use crate::detect::learn::FrameSample;
 use crate::detect::{
     Blob, CameraDetections, DetectConfig, DetectError, DetectedSet, GrayView, RoundnessChoices,
     detect, detect_choices,
@@ -30,6 +31,15 @@ impl FrameDetections for Vec<Blob> {
         match image {
             GrayFrame::Eight(i) => detect(i, config),
             GrayFrame::Sixteen(i) => detect(i, config),
+        }
+    }
+}
+
+impl FrameDetections for FrameSample {
+    fn detect_frame(image: &GrayFrame, config: &DetectConfig) -> Result<Self, DetectError> {
+        match image {
+            GrayFrame::Eight(i) => FrameSample::detect(GrayView::new(i), config),
+            GrayFrame::Sixteen(i) => FrameSample::detect(GrayView::new(i), config),
         }
     }
 }

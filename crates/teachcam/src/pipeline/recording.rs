@@ -13,6 +13,7 @@ use std::path::Path;
 use super::rules::{CameraOut, FrameInput, cameras_out, frame_inputs};
 use super::{CameraSetup, DetectStream, FrameDetections, PipelineError};
 use crate::camera::Rig;
+use crate::detect::learn::{CameraLimits, FrameSample, learn_limits};
 use crate::detect::{Blob, CenterMethod, DetectConfig, DetectedSet, RoundnessChoices, Threshold};
 use crate::geometry::CameraId;
 use crate::io::detections::Detections;
@@ -238,21 +239,22 @@ pub fn detect_recording<B: FrameDetections>(
     })
 }
 
-/// A recording detected for tracking, with the roundness gate it was detected with.
+/// A recording detected for tracking, with the limits it was detected with.
 #[derive(Debug)]
 pub struct DetectedForTracking {
     /// Every frame's blobs.
     pub recording: DetectedRecording,
     /// The roundness gate (measured from a sample unless overridden).
     pub min_roundness: Gate,
+    /// Every limit of the detection, measured from samples unless given.
+    pub limits: DetectLimits,
     /// The rig's cameras the recording has no frames of.
     pub missing_cameras: Vec<String>,
 }
 
-/// Detects every frame of the recording folder `root` for tracking `tool` through `rig`: the
-/// roundness gate from a sample detected with the lowest floor (unless `min_roundness`
-/// overrides it), every frame's blobs at it, each frame decoded once. Rig cameras without
-/// frames are left out and named.
+/// Detects every frame of the recording folder `root` for tracking `tool` through `rig` with
+/// the limits [`detect_learned`] measures (the flags of `options` and `min_roundness`
+/// override them). Rig cameras without frames are left out and named.
 ///
 /// # Errors
 /// [`PipelineError`] as [`detect_recording`]; near not below far; fewer than two rig cameras.
@@ -265,17 +267,145 @@ pub fn detect_for_tracking(
     progress: &dyn Fn(),
 ) -> Result<DetectedForTracking, PipelineError> {
     options.check()?;
-    let mut source = FolderSource::open(root, options.fps)?;
+    let source = FolderSource::open(root, options.fps)?;
     let floor = min_roundness.unwrap_or(ROUNDNESS_FLOOR);
     let (setups, missing_cameras) = options.rig_setups(rig, tool, source.cameras(), floor)?;
-    let (recording, min_roundness) = match min_roundness {
+    drop(source);
+    let given = LimitsGiven {
+        min_area_px: false,
+        min_roundness,
+    };
+    let (recording, limits) = detect_learned(root, options.fps, setups, given, progress)?;
+    Ok(DetectedForTracking {
+        recording,
+        min_roundness: limits.min_roundness.clone(),
+        limits,
+        missing_cameras,
+    })
+}
+
+/// Sets sampled to learn each camera's threshold and smallest blob from.
+pub const LIMIT_SAMPLE_FRAMES: usize = 60;
+
+/// Which limits the user fixed (the threshold is fixed in the setups' configurations).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LimitsGiven {
+    /// The setups' smallest blob is given: keep it.
+    pub min_area_px: bool,
+    /// The roundness floor, when given.
+    pub min_roundness: Option<f64>,
+}
+
+/// The limits a recording was detected with: each camera's threshold and smallest blob
+/// ([`crate::detect::learn`]) and the roundness floor ([`roundness_gate`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DetectLimits {
+    /// Each detected camera's name and limits, in the recording's order.
+    pub cameras: Vec<(String, CameraLimits)>,
+    /// The roundness floor.
+    pub min_roundness: Gate,
+    /// Sets the threshold and smallest blob were learned from.
+    pub sampled_sets: usize,
+}
+
+impl DetectLimits {
+    /// The limits in one line, for people.
+    #[must_use]
+    pub fn summary(&self) -> String {
+        let cameras: Vec<String> = self
+            .cameras
+            .iter()
+            .map(|(name, limits)| format!("{name}: {}", limits.summary()))
+            .collect();
+        format!(
+            "detect limits (from {} sampled frames; flags override): {}; min roundness {:.2} ({})",
+            self.sampled_sets,
+            cameras.join("; "),
+            self.min_roundness.value,
+            self.min_roundness.reason
+        )
+    }
+}
+
+/// Learns each camera's threshold and smallest blob from [`LIMIT_SAMPLE_FRAMES`] sets spread
+/// over `source` (each detected permissively, [`FrameSample`]) and sets them in `setups`; a
+/// fixed threshold and a given smallest blob stay. Returns the limits and the sets sampled.
+///
+/// # Errors
+/// As [`detect_recording`].
+pub fn learn_camera_limits(
+    source: &mut dyn FrameSource,
+    setups: &mut [CameraSetup],
+    min_area_given: bool,
+) -> Result<(Vec<(String, CameraLimits)>, usize), PipelineError> {
+    let fixed = setups
+        .iter()
+        .all(|s| matches!(s.detect.threshold, Threshold::Fixed(_)));
+    if fixed && min_area_given {
+        let limits = setups
+            .iter()
+            .map(|s| (s.name.clone(), learn_limits(&[], &s.detect, true)))
+            .collect();
+        return Ok((limits, 0));
+    }
+    let keep: BTreeSet<usize> = sampled_sets(source.len_hint(), LIMIT_SAMPLE_FRAMES)
+        .into_iter()
+        .collect();
+    let mut sampled = Sampled {
+        inner: source,
+        keep,
+    };
+    let samples: DetectedRecording<FrameSample> =
+        detect_recording(&mut sampled, setups.to_vec(), &|| {})?;
+    let limits = setups
+        .iter_mut()
+        .enumerate()
+        .map(|(i, setup)| {
+            let frames: Vec<FrameSample> = samples
+                .sets
+                .iter()
+                .filter_map(|set| set.cameras.get(i)?.as_ref())
+                .map(|c| c.blobs.clone())
+                .collect();
+            let limits = learn_limits(&frames, &setup.detect, min_area_given);
+            limits.apply(&mut setup.detect);
+            (setup.name.clone(), limits)
+        })
+        .collect();
+    Ok((limits, samples.sets.len()))
+}
+
+/// Detects every frame of the recording folder `root` with `setups` and limits measured from
+/// the recording itself: each camera's threshold and smallest blob from a sample
+/// ([`learn_camera_limits`]), then the roundness floor from the blobs of
+/// [`ROUNDNESS_SAMPLE_FRAMES`] sets detected at those limits with the lowest floor
+/// ([`roundness_gate`]), every frame decoded once more. What `given` (and a fixed threshold in
+/// `setups`) fixes stays. `detect`, `track`, `calibrate refine` and `doctor` all detect so.
+///
+/// # Errors
+/// [`PipelineError`] as [`detect_recording`].
+pub fn detect_learned(
+    root: &Path,
+    fps: Option<f64>,
+    mut setups: Vec<CameraSetup>,
+    given: LimitsGiven,
+    progress: &dyn Fn(),
+) -> Result<(DetectedRecording, DetectLimits), PipelineError> {
+    let mut source = FolderSource::open(root, fps)?;
+    let (cameras, sampled) = learn_camera_limits(&mut source, &mut setups, given.min_area_px)?;
+    let floor = given.min_roundness.unwrap_or(ROUNDNESS_FLOOR);
+    for setup in &mut setups {
+        setup.detect.min_roundness = floor;
+    }
+    let mut source = FolderSource::open(root, fps)?;
+    let (recording, min_roundness) = match given.min_roundness {
         Some(_) => {
-            let gate = roundness_gate(&[], min_roundness);
+            let gate = roundness_gate(&[], given.min_roundness);
             (detect_recording(&mut source, setups, progress)?, gate)
         }
         None => {
             let choices: DetectedRecording<RoundnessChoices> =
-                detect_recording(&mut source, setups, progress)?;
+                detect_recording(&mut source, setups.clone(), progress)?;
             let sample: BTreeSet<usize> = sampled_sets(choices.len_hint, ROUNDNESS_SAMPLE_FRAMES)
                 .into_iter()
                 .collect();
@@ -284,20 +414,24 @@ pub fn detect_for_tracking(
                 Some(detected) => detected,
                 // A gate below the floor (none is measured so): detect again with it.
                 None => {
-                    let mut source = FolderSource::open(root, options.fps)?;
-                    let (setups, _) =
-                        options.rig_setups(rig, tool, source.cameras(), gate.value)?;
+                    let mut source = FolderSource::open(root, fps)?;
+                    for setup in &mut setups {
+                        setup.detect.min_roundness = gate.value;
+                    }
                     detect_recording(&mut source, setups, progress)?
                 }
             };
             (detected, gate)
         }
     };
-    Ok(DetectedForTracking {
+    Ok((
         recording,
-        min_roundness,
-        missing_cameras,
-    })
+        DetectLimits {
+            cameras,
+            min_roundness,
+            sampled_sets: sampled,
+        },
+    ))
 }
 
 /// The roundness of every blob (above the lowest floor) of the sets of `sample`.
@@ -417,6 +551,9 @@ pub struct Learned {
     pub typical: Typical,
     /// The rig's cameras out of use (no frames, or seeing nothing of the volume).
     pub cameras_out: Vec<CameraOut>,
+    /// Each camera's threshold and smallest blob ([`learn_camera_limits`]); empty when they
+    /// were not learned (a camera's first frames: the configured limits).
+    pub camera_limits: Vec<(String, CameraLimits)>,
 }
 
 impl Learned {
@@ -447,6 +584,16 @@ impl Learned {
             cameras_out: cameras_out(rig, missing_cameras, &tracks, &inputs),
             gates,
             typical: Typical::of(&tracks, &noise),
+            camera_limits: Vec::new(),
+        }
+    }
+
+    /// `setups` with the learned threshold and smallest blob of their cameras.
+    pub fn apply_limits(&self, setups: &mut [CameraSetup]) {
+        for setup in setups {
+            if let Some((_, limits)) = self.camera_limits.iter().find(|(n, _)| *n == setup.name) {
+                limits.apply(&mut setup.detect);
+            }
         }
     }
 }
@@ -466,6 +613,10 @@ pub fn learn_from_recording(
 ) -> Result<Learned, PipelineError> {
     options.check()?;
     let mut source = FolderSource::open(root, options.fps)?;
+    let floor = overrides.min_roundness.unwrap_or(ROUNDNESS_FLOOR);
+    let (mut setups, missing_cameras) = options.rig_setups(rig, tool, source.cameras(), floor)?;
+    let (camera_limits, _) = learn_camera_limits(&mut source, &mut setups, false)?;
+    let mut source = FolderSource::open(root, options.fps)?;
     let len_hint = source.len_hint();
     let roundness_sample: BTreeSet<usize> = sampled_sets(len_hint, ROUNDNESS_SAMPLE_FRAMES)
         .into_iter()
@@ -473,8 +624,6 @@ pub fn learn_from_recording(
     let gate_sample: BTreeSet<usize> = sampled_sets(len_hint, GATE_SAMPLE_FRAMES)
         .into_iter()
         .collect();
-    let floor = overrides.min_roundness.unwrap_or(ROUNDNESS_FLOOR);
-    let (setups, missing_cameras) = options.rig_setups(rig, tool, source.cameras(), floor)?;
     let keep: BTreeSet<usize> = roundness_sample.union(&gate_sample).copied().collect();
     let mut sampled = Sampled {
         inner: &mut source,
@@ -501,14 +650,16 @@ pub fn learn_from_recording(
             frames[set.index] = frame_inputs(&ids, &at);
         }
     }
-    Ok(Learned::from_frames(
+    let mut learned = Learned::from_frames(
         rig,
         tool,
         &frames,
         min_roundness,
         overrides,
         &missing_cameras,
-    ))
+    );
+    learned.camera_limits = camera_limits;
+    Ok(learned)
 }
 
 /// A source that hands on only the sets of `keep` (others are read past, not decoded).

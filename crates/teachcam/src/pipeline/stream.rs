@@ -250,9 +250,13 @@ impl<'a> TrackStream<'a> {
             Learning::Given(learned) => learned.gates.min_roundness.value,
             Learning::FirstFrames(_) => options.gates.min_roundness.unwrap_or(ROUNDNESS_FLOOR),
         };
-        let (setups, missing) = options
-            .detect
-            .rig_setups(rig, tool, source.cameras(), floor)?;
+        let (mut setups, missing) =
+            options
+                .detect
+                .rig_setups(rig, tool, source.cameras(), floor)?;
+        if let Learning::Given(learned) = &options.learning {
+            learned.apply_limits(&mut setups);
+        }
         let ids = setups.iter().map(|s| rig.id_of(&s.name)).collect();
         let detect = DetectStream::detecting(source, setups)?;
         let mut stream = Self {
