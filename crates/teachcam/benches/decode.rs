@@ -8,7 +8,11 @@
 //! out so that they are not built for every check; their code is in notes/speed.md
 //! (issue 21).
 
-#![allow(clippy::expect_used, reason = "benchmark fixtures")]
+#![allow(
+    clippy::expect_used,
+    clippy::print_stderr,
+    reason = "benchmark fixtures; says which files it left out"
+)]
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
@@ -79,6 +83,64 @@ fn bench_decode(c: &mut Criterion) {
     group.bench_function("inflate_only_fdeflate", |b| {
         b.iter(|| fdeflate::decompress_to_vec(black_box(&stream)))
     });
+    group.finish();
+    bench_other_writers(c, &path, image);
+}
+
+/// The same frame as other programs write it (issue 31): FFmpeg's PNG encoder (system zlib,
+/// adaptive filters) at levels 1 and 9, and the `png` crate's zlib-like `High` setting with
+/// the Sub filter; `io::gray_png` against `image`. FFmpeg's files are left out, with a
+/// message, when `ffmpeg` is not on the path. (OpenCV's files: `scripts/reencode_png.py`,
+/// measured with `teachcam track` in BENCHMARKS.md.)
+fn bench_other_writers(c: &mut Criterion, source: &std::path::Path, image: &image::GrayImage) {
+    let dir = source.parent().expect("a folder");
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    for level in [1, 9] {
+        let out = dir.join(format!("ffmpeg_{level}.png"));
+        let written = std::process::Command::new("ffmpeg")
+            .args(["-nostdin", "-v", "error", "-y", "-i"])
+            .arg(source)
+            .args(["-pred", "mixed", "-compression_level", &level.to_string()])
+            .arg(&out)
+            .status()
+            .is_ok_and(|s| s.success());
+        if written {
+            files.push((
+                format!("ffmpeg_level{level}"),
+                std::fs::read(&out).expect("read"),
+            ));
+        } else {
+            eprintln!("ffmpeg not available: its PNG files not benchmarked");
+        }
+    }
+    let mut high = Vec::new();
+    let mut encoder = png::Encoder::new(&mut high, image.width(), image.height());
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_compression(png::Compression::High);
+    encoder.set_filter(png::Filter::Sub);
+    encoder
+        .write_header()
+        .and_then(|mut w| w.write_image_data(image.as_raw()))
+        .expect("png");
+    files.push(("png_crate_high_sub".to_string(), high));
+    let mut group = c.benchmark_group("png_decode_other_writers_1280x1024");
+    group.throughput(Throughput::Elements(1));
+    group.sample_size(20);
+    for (name, bytes) in &files {
+        assert_eq!(
+            teachcam::io::gray_png::decode_gray8(bytes).as_ref(),
+            Some(image),
+            "{name}"
+        );
+        group.bench_function(format!("{name}/gray_png_from_memory"), |b| {
+            b.iter(|| teachcam::io::gray_png::decode_gray8(black_box(bytes)))
+        });
+        group.bench_function(format!("{name}/image_from_memory"), |b| {
+            b.iter(|| {
+                image::load_from_memory_with_format(black_box(bytes), image::ImageFormat::Png)
+            })
+        });
+    }
     group.finish();
 }
 

@@ -1,5 +1,7 @@
 //! The common frame file decoded in one pass: an 8-bit gray, non-interlaced PNG made of
-//! `IHDR`, `IDAT`… and `IEND` only (what `teachcam simulate` and `teachcam record` write).
+//! `IHDR`, `IDAT`… and `IEND`, and metadata the pixels do not depend on (`pHYs`, `tEXt`,
+//! `gAMA`…): what `teachcam simulate` and `teachcam record` write, and what OpenCV, libpng,
+//! PIL and FFmpeg write for a gray frame.
 //!
 //! ```text
 //! file ─► chunks, every CRC-32 checked ─► IDAT data ─► inflate 32 rows at a time
@@ -9,13 +11,15 @@
 //! unfilters each row in a row buffer and copies it out; here the stream is inflated into one
 //! buffer reused by the thread (the window is the output itself, nothing moves), and each piece
 //! of rows is unfiltered while it is still in the core's cache, straight into the image. The
-//! inflate is [`inflate`]'s, up to four literals a table look-up, for the streams it takes
-//! (fdeflate's, which `simulate` and `record` write: codes of at most 12 bits), and fdeflate's
-//! for any other. The `Sub` filter, the one the simulator writes, is a running sum: formed 16
+//! inflate is [`inflate`]'s, up to four literals a table look-up, for any zlib stream (every
+//! deflate block kind, every level of every writer measured), and fdeflate's for a stream it
+//! refuses (which fdeflate then refuses too, or decodes to the same bytes). A stream written
+//! in many `IDAT` chunks (libpng and OpenCV write 8 KiB chunks) is joined in a buffer the
+//! thread keeps. The `Sub` filter, the one the simulator writes, is a running sum: formed 16
 //! samples at a time with SSE2 (`unfilter_sub`).
 //!
-//! Anything else (another depth or colour type, interlacing, a palette, transparency, any
-//! other chunk, a bad CRC, a stream that is short, long or corrupt) returns `None`, and the
+//! Anything else (another depth or colour type, interlacing, a palette, transparency, an
+//! unknown critical chunk, animation, a bad CRC, a stream that is short, long or corrupt) returns `None`, and the
 //! caller decodes the file with the general decoder: its pixels and its error messages are
 //! the ones that decoder gives. Like `png`, the zlib stream's Adler-32 is not checked (the
 //! chunks' CRC-32 covers the same bytes).
@@ -59,8 +63,9 @@ pub fn gray8_header(bytes: &[u8]) -> Option<GrayHeader> {
     (plain_gray8 && valid_size).then_some(GrayHeader { width, height })
 }
 
-/// The image of `bytes` when [`gray8_header`] accepts it, the file holds nothing but `IDAT`
-/// chunks after its header and ends with `IEND`, every chunk's CRC-32 is right, and the zlib
+/// The image of `bytes` when [`gray8_header`] accepts it, the file holds one run of `IDAT`
+/// chunks after its header, besides chunks that leave the pixels alone
+/// ([`leaves_pixels_alone`]), and ends with `IEND`, every chunk's CRC-32 is right, and the zlib
 /// stream inflates to exactly the image's rows with valid filter bytes; `None` otherwise.
 ///
 /// The caller checks the size against its limits before calling: this allocates
@@ -74,12 +79,15 @@ pub fn decode_gray8(bytes: &[u8]) -> Option<GrayImage> {
     let (_, after_header) = next_chunk(rest)?;
     rest = after_header;
     let mut idat: Vec<&[u8]> = Vec::new();
+    // The IDAT chunks form one run; other chunks may come before and after it.
+    let mut idat_ended = false;
     loop {
         let (chunk, after) = next_chunk(rest)?;
         rest = after;
         match &chunk.kind {
-            b"IDAT" => idat.push(chunk.data),
+            b"IDAT" if !idat_ended => idat.push(chunk.data),
             b"IEND" if chunk.data.is_empty() && rest.is_empty() && !idat.is_empty() => break,
+            kind if leaves_pixels_alone(*kind) => idat_ended = !idat.is_empty(),
             _ => return None,
         }
     }
@@ -87,16 +95,39 @@ pub fn decode_gray8(bytes: &[u8]) -> Option<GrayImage> {
     let height = usize::try_from(header.height).ok()?;
     let row_bytes = width.checked_add(1)?;
     let raw_len = row_bytes.checked_mul(height)?;
-    let joined;
-    let stream: &[u8] = if let [one] = idat.as_slice() {
-        one
-    } else {
-        joined = idat.concat();
-        &joined
-    };
-    with_row_buffer(raw_len, |raw| {
-        inflate_and_unfilter(stream, raw, width, height)
+    if let [one] = idat.as_slice() {
+        return with_buffer(&ROWS, raw_len, |raw| {
+            inflate_and_unfilter(one, raw, width, height)
+        })?;
+    }
+    // Writers split the stream in chunks of 8 KiB (libpng, OpenCV) to 64 KiB: joined in a
+    // buffer the thread keeps too.
+    let stream_len = idat.iter().map(|data| data.len()).sum();
+    with_buffer(&STREAM, stream_len, |stream| {
+        let mut at = 0;
+        for data in &idat {
+            stream[at..at + data.len()].copy_from_slice(data);
+            at += data.len();
+        }
+        with_buffer(&ROWS, raw_len, |raw| {
+            inflate_and_unfilter(stream, raw, width, height)
+        })?
     })?
+}
+
+/// Whether a chunk of this type may be passed over without changing the pixels the general
+/// decoder gives: an ancillary chunk (PNG §5.4: its first letter lower case), but not
+/// transparency (`tRNS` makes the general decoder add an alpha channel), animation (`acTL`,
+/// `fcTL`, `fdAT`), or one whose content the general decoder unpacks under its memory limits
+/// (`iCCP`, `zTXt`, `iTXt`, `eXIf`): those files are left to it. The others (`pHYs`, `tEXt`,
+/// `tIME`, `gAMA`, `sRGB`, `cHRM`, private chunks…) are metadata the pixels do not depend on;
+/// `png` passes over a malformed one too.
+fn leaves_pixels_alone(kind: [u8; 4]) -> bool {
+    let ancillary = kind[0].is_ascii_lowercase();
+    let excluded = [
+        b"tRNS", b"acTL", b"fcTL", b"fdAT", b"iCCP", b"zTXt", b"iTXt", b"eXIf",
+    ];
+    ancillary && !excluded.contains(&&kind)
 }
 
 /// A chunk: its type and data (CRC already checked).
@@ -126,13 +157,19 @@ thread_local! {
     /// The inflated rows of this thread's last frame: one buffer reused, so that a frame
     /// costs no fresh 1.3 MB allocation to zero or fault in.
     static ROWS: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
+    /// The zlib stream of this thread's last frame written in several IDAT chunks.
+    static STREAM: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
 }
 
-/// Calls `f` with a buffer of `len` bytes (contents unspecified), the thread's own when it
-/// is free.
-fn with_row_buffer<T>(len: usize, f: impl FnOnce(&mut [u8]) -> T) -> Option<T> {
+/// Calls `f` with a buffer of `len` bytes (contents unspecified), the thread's `buffer` when
+/// it is free.
+fn with_buffer<T>(
+    buffer: &'static std::thread::LocalKey<RefCell<Vec<u8>>>,
+    len: usize,
+    f: impl FnOnce(&mut [u8]) -> T,
+) -> Option<T> {
     let mut f = Some(f);
-    let shared = ROWS.try_with(|cell| {
+    let shared = buffer.try_with(|cell| {
         let mut buffer = cell.try_borrow_mut().ok()?;
         buffer.resize(len, 0);
         f.take().map(|f| f(&mut buffer))
@@ -528,18 +565,51 @@ mod tests {
         let mut longer = bytes.clone();
         longer.push(0);
         assert_eq!(decode_gray8(&longer), None);
-        // Another chunk (here a tEXt) is the general decoder's business.
+        // Metadata (tEXt, pHYs, gAMA, a private chunk) is passed over: the same pixels.
         let mut with_text = Vec::new();
         let mut encoder = png::Encoder::new(&mut with_text, 40, 30);
         encoder.set_color(png::ColorType::Grayscale);
         encoder
             .add_text_chunk("k".into(), "v".into())
             .expect("text");
+        encoder.set_pixel_dims(Some(png::PixelDimensions {
+            xppu: 3780,
+            yppu: 3780,
+            unit: png::Unit::Meter,
+        }));
+        encoder.set_source_gamma(png::ScaledFloat::new(0.45));
+        let mut writer = encoder.write_header().expect("png");
+        writer
+            .write_chunk(png::chunk::ChunkType(*b"prVt"), b"private")
+            .expect("private chunk");
+        writer.write_image_data(image.as_raw()).expect("png");
+        drop(writer);
+        assert_eq!(
+            decode_gray8(&with_text).as_ref(),
+            Some(&general(&with_text))
+        );
+        assert_eq!(decode_gray8(&with_text).as_ref(), Some(&image));
+        // Transparency (the general decoder adds alpha), an unknown critical chunk: left to
+        // the general decoder.
+        let mut transparent = Vec::new();
+        let mut encoder = png::Encoder::new(&mut transparent, 40, 30);
+        encoder.set_color(png::ColorType::Grayscale);
+        encoder.set_trns(vec![0, 7]);
         encoder
             .write_header()
             .and_then(|mut w| w.write_image_data(image.as_raw()))
             .expect("png");
-        assert_eq!(decode_gray8(&with_text), None);
+        assert_eq!(decode_gray8(&transparent), None);
+        let mut critical = Vec::new();
+        let mut encoder = png::Encoder::new(&mut critical, 40, 30);
+        encoder.set_color(png::ColorType::Grayscale);
+        let mut writer = encoder.write_header().expect("png");
+        writer
+            .write_chunk(png::chunk::ChunkType(*b"CRIT"), b"x")
+            .expect("chunk");
+        writer.write_image_data(image.as_raw()).expect("png");
+        drop(writer);
+        assert_eq!(decode_gray8(&critical), None);
         // 16-bit, RGB, interlaced: not this module's.
         let mut sixteen = Vec::new();
         let mut encoder = png::Encoder::new(&mut sixteen, 2, 2);

@@ -11,6 +11,7 @@
 use std::io::{ErrorKind, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdout, Command, Stdio};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
 
 use image::{GrayImage, ImageBuffer};
@@ -130,13 +131,33 @@ fn first_line(text: &str) -> String {
         .to_string()
 }
 
-/// A running decoder of one video.
+/// What the thread reading FFmpeg's output hands on.
+enum Piece {
+    /// The next whole frame.
+    Frame(GrayFrame),
+    /// The output ended cleanly between frames.
+    End,
+    /// The output ended inside a frame: `filled` of `expected` bytes.
+    Cut { filled: usize, expected: usize },
+    /// Reading the pipe failed.
+    Failed(String),
+}
+
+/// Bytes of frames read ahead per video at most, and their number at least and at most:
+/// enough for FFmpeg to keep decoding while a batch of frames is detected (a 640×480 frame:
+/// 64 frames; 1280×1024: 25; a 16-bit 45 MP frame: 2).
+const READ_AHEAD_BYTES: usize = 32 << 20;
+const READ_AHEAD_FRAMES: (usize, usize) = (2, 64);
+
+/// A running decoder of one video. A thread of its own reads FFmpeg's output, so that FFmpeg
+/// decodes on while the frames read before are detected (read in turn with the detection,
+/// each FFmpeg stopped on a full pipe half of the time: notes/speed.md).
 #[derive(Debug)]
 pub struct VideoReader {
     path: PathBuf,
     info: VideoInfo,
     child: Child,
-    stdout: ChildStdout,
+    frames: Receiver<Piece>,
     stderr: Option<JoinHandle<String>>,
     frames_read: usize,
     ended: bool,
@@ -181,11 +202,21 @@ impl VideoReader {
                 text
             })
         });
+        let (width, height) = info.size;
+        let samples = width as usize * height as usize;
+        let frame_bytes = samples * if info.deep { 2 } else { 1 };
+        let depth =
+            (READ_AHEAD_BYTES / frame_bytes.max(1)).clamp(READ_AHEAD_FRAMES.0, READ_AHEAD_FRAMES.1);
+        let (sender, frames) = sync_channel(depth);
+        let deep = info.deep;
+        // The thread ends at the output's end, on an error, or when the reader is dropped
+        // (its channel closes; FFmpeg is killed, which ends the pipe).
+        std::thread::spawn(move || read_frames(stdout, (width, height), deep, &sender));
         Ok(Self {
             path: path.to_path_buf(),
             info,
             child,
-            stdout,
+            frames,
             stderr,
             frames_read: 0,
             ended: false,
@@ -212,49 +243,39 @@ impl VideoReader {
         if self.ended {
             return None;
         }
-        let (width, height) = self.info.size;
-        let samples = width as usize * height as usize;
-        let bytes_per_sample = if self.info.deep { 2 } else { 1 };
-        let mut bytes = vec![0u8; samples * bytes_per_sample];
-        let mut filled = 0;
-        while filled < bytes.len() {
-            match self.stdout.read(&mut bytes[filled..]) {
-                Ok(0) => break,
-                Ok(n) => filled += n,
-                Err(e) if e.kind() == ErrorKind::Interrupted => {}
-                Err(e) => {
-                    self.ended = true;
-                    return Some(Err(self.error(&format!("reading ffmpeg's output: {e}"))));
+        let piece = self
+            .frames
+            .recv()
+            .unwrap_or_else(|_| Piece::Failed("the reading thread stopped".to_string()));
+        match piece {
+            Piece::Frame(frame) => {
+                self.frames_read += 1;
+                Some(Ok(frame))
+            }
+            Piece::End => {
+                self.ended = true;
+                match self.finish() {
+                    Ok(()) => None,
+                    Err(e) => Some(Err(e)),
                 }
             }
+            Piece::Cut { filled, expected } => {
+                self.ended = true;
+                let _ = self.finish();
+                Some(Err(self.error(&format!(
+                    "frame {} ends after {filled} of {expected} bytes",
+                    self.frames_read
+                ))))
+            }
+            Piece::Failed(message) => {
+                self.ended = true;
+                let _ = self.child.kill();
+                let _ = self.finish();
+                Some(Err(
+                    self.error(&format!("reading ffmpeg's output: {message}"))
+                ))
+            }
         }
-        if filled == 0 {
-            self.ended = true;
-            return match self.finish() {
-                Ok(()) => None,
-                Err(e) => Some(Err(e)),
-            };
-        }
-        if filled < bytes.len() {
-            self.ended = true;
-            let _ = self.finish();
-            return Some(Err(self.error(&format!(
-                "frame {} ends after {filled} of {} bytes",
-                self.frames_read,
-                bytes.len()
-            ))));
-        }
-        let frame = if self.info.deep {
-            let samples: Vec<u16> = bytes
-                .chunks_exact(2)
-                .map(|b| u16::from_le_bytes([b[0], b[1]]))
-                .collect();
-            ImageBuffer::from_raw(width, height, samples).map(GrayFrame::Sixteen)
-        } else {
-            GrayImage::from_raw(width, height, bytes).map(GrayFrame::Eight)
-        };
-        self.frames_read += 1;
-        Some(frame.ok_or_else(|| self.error("frame buffer of the wrong length")))
     }
 
     fn error(&self, message: &str) -> SourceError {
@@ -283,6 +304,42 @@ impl VideoReader {
                 self.frames_read,
                 first_line(&stderr)
             )))
+        }
+    }
+}
+
+/// Reads frames of `size` (16-bit little-endian samples when `deep`) from FFmpeg's output
+/// until it ends, fails or `sender`'s receiver is gone. Each frame is read into a buffer of
+/// its exact size, not zeroed first (`read_to_end` fills the spare capacity).
+fn read_frames(mut stdout: ChildStdout, size: (u32, u32), deep: bool, sender: &SyncSender<Piece>) {
+    let (width, height) = size;
+    let samples = width as usize * height as usize;
+    let expected = samples * if deep { 2 } else { 1 };
+    loop {
+        let mut bytes = Vec::with_capacity(expected);
+        let piece = match (&mut stdout).take(expected as u64).read_to_end(&mut bytes) {
+            Err(e) => Piece::Failed(e.to_string()),
+            Ok(0) => Piece::End,
+            Ok(filled) if filled < expected => Piece::Cut { filled, expected },
+            Ok(_) => {
+                let frame = if deep {
+                    let samples: Vec<u16> = bytes
+                        .chunks_exact(2)
+                        .map(|b| u16::from_le_bytes([b[0], b[1]]))
+                        .collect();
+                    ImageBuffer::from_raw(width, height, samples).map(GrayFrame::Sixteen)
+                } else {
+                    GrayImage::from_raw(width, height, bytes).map(GrayFrame::Eight)
+                };
+                match frame {
+                    Some(frame) => Piece::Frame(frame),
+                    None => Piece::Failed("frame buffer of the wrong length".to_string()),
+                }
+            }
+        };
+        let last = !matches!(piece, Piece::Frame(_));
+        if sender.send(piece).is_err() || last {
+            return;
         }
     }
 }
