@@ -8,6 +8,7 @@ pub mod demo;
 pub mod detect;
 pub mod doctor;
 pub mod export;
+pub mod export_mcap;
 pub mod import;
 pub mod live;
 pub mod pivot;

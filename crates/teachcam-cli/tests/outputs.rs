@@ -275,7 +275,12 @@ fn an_interrupt_removes_the_temporaries_and_keeps_the_old_output() {
             assert!(ended.status.success(), "{name}: {:?} {said}", ended.status);
             assert!(std::fs::read_to_string(&out).unwrap().starts_with("frame,"));
         }
-        assert_eq!(left, ["raw.csv", "smooth.csv"], "{name}: {:?}", ended.status);
+        assert_eq!(
+            left,
+            ["raw.csv", "smooth.csv"],
+            "{name}: {:?}",
+            ended.status
+        );
     }
 }
 

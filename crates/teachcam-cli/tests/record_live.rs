@@ -264,7 +264,13 @@ fn wrong_flags_are_usage_errors_naming_the_flag() {
 fn live_ends_on_sigterm_with_its_status_and_a_line() {
     let child = Command::new(env!("CARGO_BIN_EXE_teachcam"))
         .args([
-            "live", "--source", "sim:paper", "--fps", "30", "--seconds", "120",
+            "live",
+            "--source",
+            "sim:paper",
+            "--fps",
+            "30",
+            "--seconds",
+            "120",
         ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

@@ -352,6 +352,9 @@ fn a_camera_stamped_half_a_period_late_keeps_the_recording_indices_and_is_said()
     assert_eq!(frames, (0..40).collect::<Vec<_>>(), "{message}");
 }
 
+/// A change made to one camera of a rig file.
+type Edit<'a> = dyn Fn(&mut serde_json::Value) + 'a;
+
 /// F5: a rig camera whose calibration cannot see the volume (fx 1e300, k1 1e6, or placed on
 /// another camera; cx 1e7 is `conductor_cli`'s) was dropped without a word. `track` names it
 /// with the blobs it saw, no frame is `ok`, and `doctor` points at its calibration.
@@ -363,7 +366,7 @@ fn a_camera_whose_calibration_sees_nothing_is_named_flagged_and_doctored() {
     let rig: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(rec.join("rig.json")).unwrap()).unwrap();
     let cam0 = rig["cameras"][0].clone();
-    let cases: [(&str, &dyn Fn(&mut serde_json::Value)); 3] = [
+    let cases: [(&str, &Edit<'_>); 3] = [
         ("fx", &|c| {
             c["fx"] = 1e300.into();
             c["fy"] = 1e300.into();
@@ -384,8 +387,7 @@ fn a_camera_whose_calibration_sees_nothing_is_named_flagged_and_doctored() {
         let message = String::from_utf8_lossy(&done.stderr);
         assert!(done.status.success(), "{case}: {message}");
         assert!(
-            message.contains("camera cam1 sees nothing of the volume")
-                && message.contains("blobs"),
+            message.contains("camera cam1 sees nothing of the volume") && message.contains("blobs"),
             "{case}: {message}"
         );
         let written = teachcam::io::trajectory::read_trajectory(&out).unwrap();

@@ -23,7 +23,10 @@ pub fn under_ci() -> bool {
 /// Under CI.
 #[expect(clippy::print_stderr, reason = "a skipped test says why")]
 pub fn skipped(test: &str, why: &str) {
-    assert!(!under_ci(), "{test}: {why} (CI is true, so this is a failure)");
+    assert!(
+        !under_ci(),
+        "{test}: {why} (CI is true, so this is a failure)"
+    );
     eprintln!("{test}: skipped: {why}");
 }
 
@@ -85,7 +88,6 @@ fn rapidchecker_python() -> Option<PathBuf> {
 /// # Panics
 /// When the checker is not installed and `CI` is `true` (`.ci/run` installs it).
 #[must_use]
-#[expect(clippy::print_stderr, reason = "a skipped check says why")]
 pub fn rapidchecker(test: &str, files: &[PathBuf]) -> Option<Result<(), String>> {
     let Some(python) = rapidchecker_python() else {
         skipped(
@@ -107,5 +109,64 @@ pub fn rapidchecker(test: &str, files: &[PathBuf]) -> Option<Result<(), String>>
             String::from_utf8_lossy(&out.stderr)
         )),
         Err(e) => Err(format!("rapidchecker does not run: {e}")),
+    })
+}
+
+/// The Python with ROS 2's independent readers (PyPI `mcap`, `mcap-ros2-support`, and
+/// `cyclonedds` for the DDS test): `TEACHCAM_ROS2_PYTHON` (`.ci/run` sets it), else the venv
+/// `.ci/run` makes at `target/ros-venv`, when it imports `module`.
+fn ros2_python(module: &str) -> Option<PathBuf> {
+    let venv = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/ros-venv/bin/python");
+    std::env::var_os("TEACHCAM_ROS2_PYTHON")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([venv])
+        .find(|python| {
+            std::process::Command::new(python)
+                .args(["-c", &format!("import {module}")])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+}
+
+/// Runs `scripts/<script>` with the ROS 2 readers' Python: `Some(Ok(stdout))` when it exits
+/// 0, `Some(Err(what it printed))` otherwise, `None` when the readers are not installed
+/// (`test` then says it skipped the check).
+///
+/// # Panics
+/// When the readers are not installed and `CI` is `true` (`.ci/run` installs them).
+#[must_use]
+#[expect(clippy::print_stderr, reason = "a skipped check says why")]
+pub fn ros2_script(
+    test: &str,
+    module: &str,
+    script: &str,
+    args: &[std::ffi::OsString],
+) -> Option<Result<String, String>> {
+    let Some(python) = ros2_python(module) else {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "{test}: the Python module {module} is not installed (.ci/run installs it in target/ros-venv)"
+        );
+        eprintln!(
+            "{test}: skipped: {module} not installed (python3 -m venv target/ros-venv && target/ros-venv/bin/pip install mcap mcap-ros2-support cyclonedds)"
+        );
+        return None;
+    };
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scripts")
+        .join(script);
+    let output = std::process::Command::new(python)
+        .arg(path)
+        .args(args)
+        .output();
+    Some(match output {
+        Ok(out) if out.status.success() => Ok(String::from_utf8_lossy(&out.stdout).into_owned()),
+        Ok(out) => Err(format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        )),
+        Err(e) => Err(format!("{script} does not run: {e}")),
     })
 }

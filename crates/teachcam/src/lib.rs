@@ -45,6 +45,7 @@
 //! - [`pipeline`]: the conductor: a source's frames detected and tracked as they come.
 //! - [`report`]: what a run's report and the studio's review show (figures as data, a typed
 //!   summary), computed once for every front end.
+//! - [`ros2`]: ROS 2 messages in CDR and MCAP takes (`export mcap`, `live --ros2`).
 
 pub mod stats;
 pub mod geometry;
@@ -70,3 +71,4 @@ pub mod sim;
 pub mod source;
 pub mod pipeline;
 pub mod report;
+pub mod ros2;

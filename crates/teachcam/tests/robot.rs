@@ -440,16 +440,19 @@ fn simplified_path_keeps_every_target_within_tolerance() {
     let mut farthest_mm: f64 = 0.0;
     let mut farthest_deg: f64 = 0.0;
     for pair in kept.windows(2) {
-        let (start, end) = (&targets[pair[0]].wobj_from_tcp, &targets[pair[1]].wobj_from_tcp);
+        let (start, end) = (
+            &targets[pair[0]].wobj_from_tcp,
+            &targets[pair[1]].wobj_from_tcp,
+        );
         let (a, b) = (start.translation.vector, end.translation.vector);
-        for k in pair[0] + 1..pair[1] {
-            let p = targets[k].wobj_from_tcp.translation.vector;
+        for target in &targets[pair[0] + 1..pair[1]] {
+            let p = target.wobj_from_tcp.translation.vector;
             let t = ((p - a).dot(&(b - a)) / (b - a).norm_squared()).clamp(0.0, 1.0);
             farthest_mm = farthest_mm.max((a + (b - a) * t - p).norm());
             let nearest = (0..=1000)
                 .map(|i| {
                     let turned = start.rotation.slerp(&end.rotation, f64::from(i) / 1000.0);
-                    turned.angle_to(&targets[k].wobj_from_tcp.rotation)
+                    turned.angle_to(&target.wobj_from_tcp.rotation)
                 })
                 .fold(f64::INFINITY, f64::min);
             farthest_deg = farthest_deg.max(nearest.to_degrees());

@@ -291,8 +291,14 @@ fn a_tool_that_is_not_there_is_never_found() {
         "chance triangles in 300 clouds of 40 points: {chance} at 1 mm; through the measured gates \
          {trusted} ok or degraded, {outliers} outliers; {gates}"
     );
-    assert!(chance > 0, "the clouds hold no chance triangle: the test shows nothing");
-    assert_eq!(trusted, 0, "a tool that is not there was found: {statuses:?}");
+    assert!(
+        chance > 0,
+        "the clouds hold no chance triangle: the test shows nothing"
+    );
+    assert_eq!(
+        trusted, 0,
+        "a tool that is not there was found: {statuses:?}"
+    );
 }
 
 #[test]

@@ -62,9 +62,10 @@ pub struct Args {
 /// The robot and the frames that place the trajectory on it (shared by `check` and `export`).
 #[derive(Debug, clap::Args)]
 pub struct CellArgs {
-    /// Robot: irb120, kr6-r700, kr6-r900, ur5e, ur10e, or a robot file (.json, see above).
-    #[arg(long, default_value = "irb120")]
-    pub robot: String,
+    /// Robot: irb120, kr6-r700, kr6-r900, ur5e, ur10e, or a robot file (.json, see above)
+    /// [default: irb120; `export mcap` writes no joint path without it].
+    #[arg(long)]
+    pub robot: Option<String>,
     /// Work object in the robot's base frame, "x,y,z,qw,qx,qy,qz" (mm; RAPID's uframe).
     #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0", value_parser = crate::flags::pose)]
     pub wobj: String,
@@ -154,6 +155,13 @@ impl GapArgs {
     }
 }
 
+impl CellArgs {
+    /// The robot asked for, `irb120` when none was.
+    pub fn robot_name(&self) -> &str {
+        self.robot.as_deref().unwrap_or("irb120")
+    }
+}
+
 /// Everything `check` and `export` need, resolved from the arguments and files.
 pub struct Resolved {
     /// The robot.
@@ -175,7 +183,7 @@ pub fn parse_pose(text: &str, flag: &str) -> anyhow::Result<Pose> {
 
 /// Reads the trajectory and the tool, and parses the frames.
 pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
-    let robot = resolve_robot(&args.robot)?;
+    let robot = resolve_robot(args.robot_name())?;
     let cell = Cell {
         base_from_wobj: parse_pose(&args.wobj, "--wobj")?,
         flange_from_tcp: parse_pose(&args.tcp, "--tcp")?,

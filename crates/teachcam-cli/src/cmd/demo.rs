@@ -163,7 +163,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // 5. Robot: check on the IRB 120, then the RAPID program of the smoothed trajectory.
     let start = Instant::now();
     let cell = CellArgs {
-        robot: "irb120".into(),
+        robot: Some("irb120".into()),
         wobj: DEMO_WOBJ.into(),
         tcp: DEMO_TCP.into(),
         tool: None,
@@ -190,6 +190,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         tool_mass: None,
         tool_cog: None,
         force: false,
+        rig: None,
+        frame_id: None,
     })?;
     timed("robot check + RAPID", start);
 

@@ -29,9 +29,13 @@ pub enum Dialect {
     Urscript,
     /// CSV of every frame's TCP pose in the work object and the checked joints.
     Csv,
+    /// ROS 2 MCAP take (CDR, schemas embedded): /teachcam/tool, /tf, /teachcam/status per
+    /// frame, /tf_static with --rig, /teachcam/joint_trajectory with --robot.
+    Mcap,
 }
 
-/// Write a robot program (RAPID, KRL, URScript or CSV) for a trajectory.
+/// Write a robot program (RAPID, KRL, URScript or CSV) or a ROS 2 take (MCAP) for a
+/// trajectory.
 ///
 /// The trajectory is checked on the robot first
 /// (as `teachcam check`); a program that would fail is not written unless `--force` is given.
@@ -44,12 +48,20 @@ pub enum Dialect {
 /// TCP offset is assumed, and the program's comment says so. A KRL program's DEF name is the
 /// output file's name, which must then be a KRL name (letters, digits, underscores, starting
 /// with a letter, at most 24 characters).
+///
+/// mcap: a ROS 2 bag (`ros2 bag play`, Foxglove) with the tool's pose on /teachcam/tool
+/// (geometry_msgs/msg/PoseWithCovarianceStamped: the tip in metres, the tool's orientation,
+/// the covariance from tip_std_mm), /tf (world -> teachcam_tool), /teachcam/status
+/// (diagnostic_msgs/msg/DiagnosticArray) per frame, stamped with time_s; frames without a pose
+/// have a status only. --rig adds the cameras on /tf_static; --robot adds the checked joint
+/// path as one trajectory_msgs/msg/JointTrajectory (radians, time after time scaling).
 #[derive(Debug, clap::Args)]
 #[command(after_help = r#"Examples:
   teachcam export rapid smooth.csv --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o stroke.mod
   teachcam export krl smooth.csv --robot kr6-r700 --wobj "350,0,100,1,0,0,0" --tcp "200,0,0,0.7071068,0,-0.7071068,0" -o stroke.src
   teachcam export urscript smooth.csv --robot ur5e --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o stroke.script
-  teachcam export csv smooth.csv --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o targets.csv"#)]
+  teachcam export csv smooth.csv --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o targets.csv
+  teachcam export mcap smooth.csv --rig rig.json --robot irb120 --wobj "350,0,100,1,0,0,0" --tcp "0,0,200,0,1,0,0" -o take.mcap"#)]
 pub struct Args {
     /// Program dialect.
     #[arg(value_enum)]
@@ -89,9 +101,16 @@ pub struct Args {
     /// the TCP offset).
     #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::point)]
     pub tool_cog: Option<[f64; 3]>,
-    /// Write the program even when the check fails or the robot is another maker's.
+    /// Write the program even when the check fails or the robot is another maker's (mcap:
+    /// the joint path of the frames that have joints).
     #[arg(long)]
     pub force: bool,
+    /// mcap: the rig whose cameras go on /tf_static (world -> camera_<name>).
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
+    /// mcap: the world frame's name, every message's frame_id [default: world].
+    #[arg(long)]
+    pub frame_id: Option<String>,
 }
 
 /// The program's name: `--name`, else the output file's name, made an identifier. A reserved
@@ -138,7 +157,7 @@ fn program_name(args: &Args) -> anyhow::Result<String> {
     let problem = match args.dialect {
         Dialect::Rapid => rapid_name_problem(&name),
         Dialect::Urscript => urscript_name_problem(&name),
-        Dialect::Krl | Dialect::Csv => None,
+        Dialect::Krl | Dialect::Csv | Dialect::Mcap => None,
     };
     match (problem, &args.name) {
         (None, _) => Ok(name),
@@ -174,6 +193,12 @@ pub struct Written {
     reason = "a failing check's summary and the gaps are part of the output"
 )]
 pub fn write_program(args: &Args) -> anyhow::Result<Written> {
+    if args.dialect == Dialect::Mcap {
+        anyhow::bail!("export mcap writes a take, not a program");
+    }
+    if args.rig.is_some() || args.frame_id.is_some() {
+        anyhow::bail!("--rig and --frame-id are options of export mcap only");
+    }
     if !(args.tolerance_mm > 0.0 && args.tolerance_deg > 0.0) {
         anyhow::bail!("--tolerance-mm and --tolerance-deg must be positive");
     }
@@ -195,7 +220,7 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
     inputs.extend(args.cell.tool.as_deref());
     check_outputs(&outputs, &inputs)?;
     let name = program_name(args)?;
-    let robot = super::check::resolve_robot(&args.cell.robot)?;
+    let robot = super::check::resolve_robot(args.cell.robot_name())?;
     if let Some(maker) = args.dialect.maker()
         && maker != robot.maker
         && !args.force
@@ -291,6 +316,7 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
             urscript_program(&program, &UrScriptConfig::default()).as_bytes(),
         )?,
         Dialect::Csv => outputs.add(&args.output, poses_csv(&report).as_bytes())?,
+        Dialect::Mcap => anyhow::bail!("export mcap writes a take, not a program"),
     }
     Ok(Written {
         files: outputs.commit()?,
@@ -315,7 +341,7 @@ impl Dialect {
             Self::Rapid => Some(Maker::Abb),
             Self::Krl => Some(Maker::Kuka),
             Self::Urscript => Some(Maker::UniversalRobots),
-            Self::Csv => None,
+            Self::Csv | Self::Mcap => None,
         }
     }
 
@@ -326,6 +352,7 @@ impl Dialect {
             Self::Krl => "KRL",
             Self::Urscript => "URScript",
             Self::Csv => "CSV",
+            Self::Mcap => "MCAP",
         }
     }
 
@@ -336,6 +363,7 @@ impl Dialect {
             Self::Krl => "a KUKA KRL program",
             Self::Urscript => "a URScript program",
             Self::Csv => "CSV",
+            Self::Mcap => "a ROS 2 MCAP file",
         }
     }
 
@@ -347,12 +375,16 @@ impl Dialect {
             Self::Krl => &["src"],
             Self::Urscript => &["script"],
             Self::Csv => &["csv"],
+            Self::Mcap => &["mcap"],
         }
     }
 }
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if args.dialect == Dialect::Mcap {
+        return super::export_mcap::run(args);
+    }
     let Written {
         files,
         moves,

@@ -152,13 +152,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             robot.name,
             played.duration_s
         );
-        for axis in 0..6 {
+        for (axis, ratio) in ratios.iter().enumerate() {
             println!(
                 "axis {}: peak {:.1} deg/s of {:.0} deg/s ({:.0}%) at {:.2} s",
                 axis + 1,
                 played.peak_joint_speed[axis].to_degrees(),
                 robot.limits[axis].max_speed.to_degrees(),
-                100.0 * ratios[axis],
+                100.0 * ratio,
                 played.peak_time_s[axis]
             );
         }

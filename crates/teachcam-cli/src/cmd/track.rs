@@ -282,7 +282,9 @@ fn say_stamp_offsets(recording: &Path, fps: Option<f64>) -> anyhow::Result<()> {
         if offset.abs() >= 0.1 * period_s {
             crate::announce::warn(&format!(
                 "{}: camera {camera}'s times lie {:+.3} ms ({:+.2} of a frame period) from the other cameras'; frame i of every camera is kept as row i (its time the cameras' mean)",
-                recording.join(teachcam::io::recording::TIMESTAMPS_FILE).display(),
+                recording
+                    .join(teachcam::io::recording::TIMESTAMPS_FILE)
+                    .display(),
                 1e3 * offset,
                 offset / period_s
             ));

@@ -196,14 +196,28 @@ fn measured_json(image: Option<&GrayFrame>, config: &DetectConfig) -> Value {
     let Some(image) = image else {
         return Value::Null;
     };
-    let (background, auto, full_scale): (Background, u32, u32) = match image {
+    let contrast = match config.threshold {
+        teachcam::detect::Threshold::AboveBackground(c) => c,
+        _ => 0.0,
+    };
+    let (background, auto, above, full_scale): (Background, u32, u32, u32) = match image {
         GrayFrame::Eight(i) => {
             let b = estimate_background(GrayView::new(i));
-            (b, b.auto_threshold::<u8>(), 255)
+            (
+                b,
+                b.auto_threshold::<u8>(),
+                b.threshold_above::<u8>(contrast),
+                255,
+            )
         }
         GrayFrame::Sixteen(i) => {
             let b = estimate_background(GrayView::new(i));
-            (b, b.auto_threshold::<u16>(), 65535)
+            (
+                b,
+                b.auto_threshold::<u16>(),
+                b.threshold_above::<u16>(contrast),
+                65535,
+            )
         }
     };
     json!({
@@ -213,6 +227,7 @@ fn measured_json(image: Option<&GrayFrame>, config: &DetectConfig) -> Value {
         "threshold": match config.threshold {
             teachcam::detect::Threshold::Auto => auto,
             teachcam::detect::Threshold::Fixed(t) => t,
+            teachcam::detect::Threshold::AboveBackground(_) => above,
         },
         "full_scale": full_scale,
         "min_area_px": config.min_area_px,

@@ -160,7 +160,7 @@ fn check(studio: &Studio, query: &RobotQuery) -> Result<Checked, ApiError> {
     };
     if automatic && !report.passes() {
         let suggested = report.suggestions.iter().find_map(|s| match s {
-            Suggestion::UseWorkObject { base_from_wobj } => Some(*base_from_wobj),
+            Suggestion::UseWorkObject { base_from_wobj, .. } => Some(*base_from_wobj),
             Suggestion::SlowDown { .. } => None,
         });
         if let Some(base_from_wobj) = suggested {

@@ -391,9 +391,9 @@ fn joint_moves(program: &Program) -> Vec<Option<usize>> {
         _ => None,
     };
     let mut out = vec![None; program.moves.len()];
-    for i in 1..program.moves.len() {
-        if let (Some(a), Some(b)) = (conf(&program.moves[i - 1]), conf(&program.moves[i])) {
-            out[i] = [(1, a.cf1, b.cf1), (4, a.cf4, b.cf4), (6, a.cf6, b.cf6)]
+    for (slot, pair) in out.iter_mut().skip(1).zip(program.moves.windows(2)) {
+        if let (Some(a), Some(b)) = (conf(&pair[0]), conf(&pair[1])) {
+            *slot = [(1, a.cf1, b.cf1), (4, a.cf4, b.cf4), (6, a.cf6, b.cf6)]
                 .into_iter()
                 .find(|(_, p, q)| (q - p).abs() > 1)
                 .map(|(axis, _, _)| axis);

@@ -649,7 +649,7 @@ pub fn parse_urscript(text: &str) -> Result<ProgramText, ParseError> {
             let pose = ur_pose(line, rest)?;
             let after = &rest[rest.find(']').unwrap_or(0)..];
             let v = ur_argument(after, "v").unwrap_or(0.25);
-            if !(v > 0.0) {
+            if v.is_nan() || v <= 0.0 {
                 return Err(error(line, "movel: v must be positive"));
             }
             moves.push(ProgrammedMove {

@@ -1,0 +1,141 @@
+"""Reads a teachcam MCAP take with independent ROS 2 readers and checks it against the CSVs.
+
+The messages are decoded by `mcap-ros2-support` from the schemas embedded in the file (not
+from teachcam's code); the expected numbers come from the trajectory CSV and, with a robot,
+from `teachcam check --joints-out`.
+
+Run: python3 -m venv target/ros-venv && target/ros-venv/bin/pip install mcap mcap-ros2-support
+     target/ros-venv/bin/python scripts/ros2/read_mcap.py take.mcap TRAJ.csv [JOINTS.csv] \
+         [--frame-id world] [--cameras N]
+Prints one JSON line with what it counted; exits 1 naming the first check that fails.
+"""
+
+import argparse
+import csv
+import json
+import math
+import sys
+
+from mcap_ros2.reader import read_ros2_messages
+
+
+def fail(message):
+    print(f"FAIL: {message}")
+    sys.exit(1)
+
+
+def stamp_s(stamp):
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("mcap")
+    parser.add_argument("trajectory")
+    parser.add_argument("joints", nargs="?")
+    parser.add_argument("--frame-id", default="world")
+    parser.add_argument("--cameras", type=int, default=0)
+    args = parser.parse_args()
+
+    with open(args.trajectory, newline="") as f:
+        rows = list(csv.DictReader(f))
+    posed = [r for r in rows if r["x_mm"] != ""]
+
+    by_topic = {}
+    types = {}
+    for m in read_ros2_messages(args.mcap):
+        by_topic.setdefault(m.channel.topic, []).append(m)
+        types[m.channel.topic] = m.schema.name
+    tool = by_topic.get("/teachcam/tool", [])
+    if types.get("/teachcam/tool") != "geometry_msgs/msg/PoseWithCovarianceStamped":
+        fail(f"/teachcam/tool type {types.get('/teachcam/tool')}")
+    if len(tool) != len(posed):
+        fail(f"{len(tool)} tool messages for {len(posed)} posed frames")
+    worst_m = 0.0
+    worst_s = 0.0
+    for row, m in zip(posed, tool):
+        msg = m.ros_msg
+        if msg.header.frame_id != args.frame_id:
+            fail(f"frame_id {msg.header.frame_id!r}")
+        p = msg.pose.pose.position
+        tip = [float(row[k]) / 1000.0 for k in ("tip_x_mm", "tip_y_mm", "tip_z_mm")]
+        worst_m = max(worst_m, abs(p.x - tip[0]), abs(p.y - tip[1]), abs(p.z - tip[2]))
+        worst_s = max(worst_s, abs(stamp_s(msg.header.stamp) - float(row["time_s"])))
+        q = msg.pose.pose.orientation
+        if abs(math.sqrt(q.x**2 + q.y**2 + q.z**2 + q.w**2) - 1.0) > 1e-6:
+            fail(f"frame {row['frame']}: orientation not unit")
+        cov = list(msg.pose.covariance)
+        if len(cov) != 36:
+            fail("covariance length")
+        diagonal = [cov[i * 7] for i in range(6)]
+        if not all(math.isfinite(v) and v > 0 for v in diagonal):
+            fail(f"frame {row['frame']}: covariance diagonal {diagonal}")
+        if not all(math.isfinite(v) for v in cov):
+            fail(f"frame {row['frame']}: covariance not finite")
+        if row.get("tip_std_mm"):
+            expected = (float(row["tip_std_mm"]) / 1000.0) ** 2
+            if abs(diagonal[0] - expected) > 1e-6 * expected + 1e-18:
+                fail(f"frame {row['frame']}: x variance {diagonal[0]} against {expected}")
+    if worst_m > 1e-6:
+        fail(f"positions differ from tip/1000 by {worst_m} m")
+    if worst_s > 1e-6:
+        fail(f"stamps differ from time_s by {worst_s} s")
+
+    tf = by_topic.get("/tf", [])
+    if not tf:
+        fail("no /tf message")
+    first = tf[0].ros_msg.transforms[0]
+    if first.header.frame_id != args.frame_id:
+        fail(f"/tf parent {first.header.frame_id!r}")
+
+    status = by_topic.get("/teachcam/status", [])
+    if len(status) != len(rows):
+        fail(f"{len(status)} status messages for {len(rows)} frames")
+
+    cameras = 0
+    if args.cameras:
+        static = by_topic.get("/tf_static", [])
+        cameras = sum(len(m.ros_msg.transforms) for m in static)
+        if cameras != args.cameras:
+            fail(f"/tf_static has {cameras} cameras, expected {args.cameras}")
+
+    worst_rad = None
+    points = 0
+    if args.joints:
+        with open(args.joints, newline="") as f:
+            joint_rows = [r for r in csv.DictReader(f) if r["j1_deg"] != ""]
+        jt = by_topic.get("/teachcam/joint_trajectory", [])
+        if len(jt) != 1:
+            fail(f"{len(jt)} joint trajectories")
+        msg = jt[0].ros_msg
+        if len(msg.joint_names) != 6:
+            fail(f"joint names {msg.joint_names}")
+        points = len(msg.points)
+        if points != len(joint_rows):
+            fail(f"{points} points for {len(joint_rows)} frames with joints")
+        worst_rad = 0.0
+        start = float(joint_rows[0]["time_s"])
+        for row, point in zip(joint_rows, msg.points):
+            expected = [math.radians(float(row[f"j{i}_deg"])) for i in range(1, 7)]
+            worst_rad = max(worst_rad, *(abs(a - b) for a, b in zip(point.positions, expected)))
+            t = stamp_s(point.time_from_start)
+            if abs(t - (float(row["time_s"]) - start)) > 2e-6:
+                fail(f"frame {row['frame']}: time_from_start {t}")
+        if worst_rad > 1e-6:
+            fail(f"joints differ from --joints-out by {worst_rad} rad")
+
+    print(json.dumps({
+        "tool_messages": len(tool),
+        "posed_frames": len(posed),
+        "status_messages": len(status),
+        "tf_messages": len(tf),
+        "cameras": cameras,
+        "joint_points": points,
+        "worst_position_m": worst_m,
+        "worst_stamp_s": worst_s,
+        "worst_joint_rad": worst_rad,
+    }))
+
+
+if __name__ == "__main__":
+    main()
