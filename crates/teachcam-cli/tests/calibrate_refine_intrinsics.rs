@@ -148,7 +148,7 @@ fn calibrate_refine_recovers_a_perturbed_focal_length_principal_point_and_k1() {
         .lines()
         .find(|l| l.starts_with("held-out frames"))
         .unwrap();
-    let best = number_after(chosen, "; intrinsics ");
+    let best = number_after(chosen, ", intrinsics ");
     eprintln!("held-out rigidity: input {input} mm, intrinsics {best} mm");
     assert!(best <= input);
 

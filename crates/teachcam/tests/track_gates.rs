@@ -16,7 +16,9 @@ use teachcam::correspond::Views;
 use teachcam::geometry::{Pixel, Point3, Pose, pose_from_parts};
 use teachcam::identify::{IdentifyConfig, identify};
 use teachcam::tool::Tool;
-use teachcam::track::gates::{GateOverrides, measure_gates, roundness_gate, sample_frames};
+use teachcam::track::gates::{
+    GateOverrides, distance_tolerance_ceiling_mm, measure_gates, roundness_gate, sample_frames,
+};
 use teachcam::track::merged::{BlobShape, MergedGate, Shapes, predicted_radius_px};
 use teachcam::track::{Lost, TrackConfig, Tracker};
 use teachcam::trajectory::Status;
@@ -251,54 +253,67 @@ fn a_tool_that_is_not_there_is_never_found() {
                 .collect()
         })
         .collect();
-    // Chance triangles exist in such clouds: identification alone finds some.
+    // Chance triangles exist in such clouds at the first pass's tolerance (the ceiling):
+    // identification alone finds some, so the test can fail.
+    let ceiling = distance_tolerance_ceiling_mm(&tool);
     let loose = IdentifyConfig {
-        distance_tolerance_mm: 1.0,
+        distance_tolerance_mm: ceiling,
     };
     let chance = clouds
         .iter()
         .filter(|cloud| identify(&tool.markers_in_tool, cloud, &loose).labels.len() == 3)
         .count();
-    // The tracker's refusal rests on the gates measured from the recording itself: through
-    // them no frame is `ok` or `degraded`, so the conductor says "tool not found" (exit 3).
-    let frames: Vec<Views> = clouds
+    assert!(
+        chance >= 10,
+        "{chance} chance triangles at {ceiling:.1} mm: the test shows nothing"
+    );
+    let project = |cloud: &[Point3]| -> Views {
+        rig.iter()
+            .map(|(id, camera)| (id, cloud.iter().filter_map(|p| camera.project(p)).collect()))
+            .collect()
+    };
+    let frames: Vec<Views> = clouds.iter().map(|c| project(c)).collect();
+    let sample = |frames: &[Views]| {
+        measure_gates(
+            &rig,
+            &tool,
+            frames,
+            &[],
+            roundness_gate(&[], None),
+            &GateOverrides::default(),
+        )
+    };
+    // The gates measured from these frames say the tool is not shown: both conductors then
+    // refuse ("tool not found", exit 3) instead of tracking with gates learned from chance.
+    let gates = sample(&frames);
+    println!("{chance} chance triangles in 300 clouds at {ceiling:.1} mm; {gates}");
+    assert!(gates.chance.is_some(), "{gates}");
+    // The control: the same clouds with the triangle in them (hand poses) show the tool, and
+    // its gates track it in nearly every frame.
+    let poses = hand_poses(clouds.len(), 4);
+    let with_tool: Vec<Views> = clouds
         .iter()
-        .map(|cloud| {
-            rig.iter()
-                .map(|(id, camera)| (id, cloud.iter().filter_map(|p| camera.project(p)).collect()))
-                .collect()
+        .zip(&poses)
+        .map(|(cloud, pose)| {
+            let mut points = cloud.clone();
+            points.extend(tool.markers_in_tool.iter().map(|m| pose * m));
+            project(&points)
         })
         .collect();
-    let gates = measure_gates(
-        &rig,
-        &tool,
-        &frames,
-        &[],
-        roundness_gate(&[], None),
-        &GateOverrides::default(),
-    );
+    let gates = sample(&with_tool);
+    assert!(gates.chance.is_none(), "{gates}");
     let tracker = Tracker::new(&rig, &tool, gates.track_config());
-    let statuses: Vec<Status> = frames
+    let posed = with_tool
         .iter()
-        .map(|v| tracker.track_frame(v).status())
-        .collect();
-    let trusted = statuses
-        .iter()
-        .filter(|s| matches!(s, Status::Ok | Status::Degraded))
+        .zip(&poses)
+        .filter(|(v, pose)| {
+            tracker
+                .track_frame(v)
+                .outcome
+                .is_ok_and(|found| (found.tip_in_world - *pose * tool.tip_in_tool()).norm() < 0.1)
+        })
         .count();
-    let outliers = statuses.iter().filter(|s| **s == Status::Outlier).count();
-    println!(
-        "chance triangles in 300 clouds of 40 points: {chance} at 1 mm; through the measured gates \
-         {trusted} ok or degraded, {outliers} outliers; {gates}"
-    );
-    assert!(
-        chance > 0,
-        "the clouds hold no chance triangle: the test shows nothing"
-    );
-    assert_eq!(
-        trusted, 0,
-        "a tool that is not there was found: {statuses:?}"
-    );
+    assert!(posed >= 285, "{posed} of 300 frames posed at the truth");
 }
 
 #[test]

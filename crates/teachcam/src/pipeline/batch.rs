@@ -215,6 +215,12 @@ pub fn track(
         None => None,
     };
     let gates = gates_from_sample(rig, tool, &frames, min_roundness, overrides);
+    if let Some(chance) = &gates.chance {
+        return Err(PipelineError::ToolNotFound(format!(
+            "tool '{}' not found: {chance}; is it the right tool file? see `teachcam doctor`",
+            tool.name
+        )));
+    }
     let config = gates.track_config();
     check_identifiable(tool, &config.identify)?;
 

@@ -659,6 +659,12 @@ pub fn learn_from_recording(
         &missing_cameras,
     );
     learned.camera_limits = camera_limits;
+    if let Some(chance) = &learned.gates.chance {
+        return Err(PipelineError::ToolNotFound(format!(
+            "tool '{}' not found: {chance}; is it the right tool file? see `teachcam doctor`",
+            tool.name
+        )));
+    }
     Ok(learned)
 }
 

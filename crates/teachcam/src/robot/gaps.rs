@@ -4,8 +4,9 @@
 //!
 //! Model: across a gap from target `a` (time `t_a`) to target `b` (`t_b`, `T = t_b − t_a`),
 //! the smoothest path the data allows is the cubic Hermite curve with the positions and
-//! velocities measured on either side (velocities: differences over the last two frames
-//! before the gap and the first two after it). A straight move is the chord `a → b`; the gap is
+//! velocities measured on either side (velocities: the derivative of the quadratic through the
+//! last three frames before the gap and the first three after it, or a difference over two
+//! frames where only two are there). A straight move is the chord `a → b`; the gap is
 //! bridgeable when the Hermite curve stays within the path tolerance of the chord (sampled at
 //! 1/32 of the gap). A stroke going straight through a gap bridges at any length; an arc whose
 //! bend is `κ v²` bridges for `T ≲ √(8 · tolerance / (κ v²))` (the chord-to-arc sagitta).
@@ -89,10 +90,17 @@ pub fn find_gaps(targets: &[TcpTarget], config: &GapConfig) -> Vec<Gap> {
             continue;
         }
         let duration_s = b.time_s - a.time_s;
-        let before = (k >= 2 && targets[k - 2].frame.0 + 1 == a.frame.0)
-            .then(|| velocity(&targets[k - 2], a));
-        let after = (k + 1 < targets.len() && targets[k + 1].frame.0 == b.frame.0 + 1)
-            .then(|| velocity(b, &targets[k + 1]));
+        let consecutive = |i: usize, j: usize| targets[i].frame.0 + 1 == targets[j].frame.0;
+        let before = if k >= 3 && consecutive(k - 2, k - 1) && consecutive(k - 3, k - 2) {
+            Some(end_velocity(a, &targets[k - 2], &targets[k - 3]))
+        } else {
+            (k >= 2 && consecutive(k - 2, k - 1)).then(|| velocity(&targets[k - 2], a))
+        };
+        let after = if k + 2 < targets.len() && consecutive(k, k + 1) && consecutive(k + 1, k + 2) {
+            Some(end_velocity(b, &targets[k + 1], &targets[k + 2]))
+        } else {
+            (k + 1 < targets.len() && consecutive(k, k + 1)).then(|| velocity(b, &targets[k + 1]))
+        };
         let deviation_mm = match (before, after) {
             (Some(Some(v0)), Some(Some(v1))) if duration_s > 0.0 => {
                 Some(hermite_deviation(a, b, v0, v1, duration_s))
@@ -112,6 +120,25 @@ pub fn find_gaps(targets: &[TcpTarget], config: &GapConfig) -> Vec<Gap> {
         });
     }
     out
+}
+
+/// Velocity at `end`, mm/s, from it and the two frames beside it (`near`, then `far`, either
+/// side of `end` in time): the derivative at `end` of the quadratic through the three
+/// positions, exact for a quadratic and second order otherwise (a one-sided difference over
+/// the last frame would lag by half a frame and tilt the tangent on a curve). `None` when the
+/// times do not increase away from `end`.
+fn end_velocity(end: &TcpTarget, near: &TcpTarget, far: &TcpTarget) -> Option<Vec3> {
+    let (t0, t1, t2) = (end.time_s, near.time_s, far.time_s);
+    let (d01, d02, d12) = (t0 - t1, t0 - t2, t1 - t2);
+    let apart = d01 != 0.0 && d02 != 0.0 && d12 != 0.0 && (d01 > 0.0) == (d02 > 0.0);
+    if !apart || !(d01.is_finite() && d02.is_finite()) {
+        return None;
+    }
+    let p = |t: &TcpTarget| t.wobj_from_tcp.translation.vector;
+    let w0 = 1.0 / d01 + 1.0 / d02;
+    let w1 = -d02 / (d01 * d12);
+    let w2 = d01 / (d02 * d12);
+    Some(p(end) * w0 + p(near) * w1 + p(far) * w2)
 }
 
 /// Velocity from `a` to `b`, mm/s (`None` for a non-increasing time).

@@ -36,7 +36,11 @@ pub trait Message {
 fn definition_of(ty: &str, dependencies: &[&str]) -> String {
     let mut text = msg_text(ty).to_string();
     for dependency in dependencies {
-        text.push('\n');
+        // rosbag2's "Message Definition Encoding": the delimiter is a line of exactly 80 `=`
+        // right after the previous definition's last line.
+        if !text.ends_with('\n') {
+            text.push('\n');
+        }
         text.push_str(&"=".repeat(80));
         text.push_str("\nMSG: ");
         text.push_str(dependency);

@@ -123,6 +123,10 @@ pub struct Gates {
     pub merged: Option<MergedGate>,
     /// How the merged-blob gate was set, or why there is none, for people.
     pub merged_reason: String,
+    /// Set when the confident frames look like chance alignments of other points rather
+    /// than the tool ([`chance_alignments`]): the sample does not show the tool, and no
+    /// frame tracked through these gates is to be trusted.
+    pub chance: Option<String>,
 }
 
 /// Gates the user fixed; `None` is measured.
@@ -563,6 +567,7 @@ pub fn measure_gates(
         Err(why) => (None, format!("none: {why}")),
     };
     let (merged, merged_reason) = merged_gate(&evidence.blobs);
+    let chance = chance_alignments(&evidence.distance_error_mm, mirror_noise_mm);
     Gates {
         min_roundness,
         epipolar_tolerance_px,
@@ -578,7 +583,33 @@ pub fn measure_gates(
         mirror_reason,
         merged,
         merged_reason,
+        chance,
     }
+}
+
+/// Why the confident frames' marker distances look like chance, `None` when they show a tool.
+///
+/// The first pass identifies markers within `tolerance_mm` of the tool's distances. Where the
+/// tool is in view, the measured distances miss the model's by the calibration's and
+/// detector's noise: a small fraction of the tolerance, which is the ceiling
+/// ([`distance_tolerance_ceiling_mm`], half the gap between two of the tool's distances). Where
+/// it is not, chance triples of other points (a cloud of markers, reflections) fit the
+/// distances anywhere within the tolerance, spread evenly: their median error is half of it.
+/// A median beyond a quarter of the tolerance is 2.7 standard errors from a uniform spread's
+/// half with [`MIN_SAMPLES`] distances, and 12 % of the tool's closest gap: no rig that tracks
+/// leaves it. Fewer than [`MIN_SAMPLES`] distances judge nothing.
+#[must_use]
+pub fn chance_alignments(distance_error_mm: &[f64], tolerance_mm: f64) -> Option<String> {
+    if distance_error_mm.len() < MIN_SAMPLES {
+        return None;
+    }
+    let typical = median(distance_error_mm)?;
+    (typical > 0.25 * tolerance_mm).then(|| {
+        format!(
+            "the confidently tracked frames' marker distances miss the tool's by a median {typical:.2} mm of the {tolerance_mm:.2} mm the first pass allows ({} distances): chance alignments of other points spread evenly up to the tolerance, a tool in view stays near zero; the tool is not in view, or the rig does not measure it",
+            distance_error_mm.len()
+        )
+    })
 }
 
 /// The merged-blob gate from the confident markers' blobs (size ratio, roundness), with its
@@ -643,6 +674,7 @@ impl Gates {
             mirror_reason: "none: nothing measured".into(),
             merged: None,
             merged_reason: "none: nothing measured".into(),
+            chance: None,
         }
     }
 
@@ -718,6 +750,9 @@ impl fmt::Display for Gates {
         line("distance tolerance", &self.distance_tolerance_mm, "mm")?;
         line("registration residual", &self.max_registration_rms_mm, "mm")?;
         writeln!(f, "  {:<24} {}", "mirror", self.mirror_reason)?;
+        if let Some(chance) = &self.chance {
+            writeln!(f, "  {:<24} {chance}", "tool not shown")?;
+        }
         writeln!(f, "  {:<24} {}", "merged blob", self.merged_reason)
     }
 }
