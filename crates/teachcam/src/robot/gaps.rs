@@ -131,7 +131,7 @@ fn end_velocity(end: &TcpTarget, near: &TcpTarget, far: &TcpTarget) -> Option<Ve
     let (t0, t1, t2) = (end.time_s, near.time_s, far.time_s);
     let (d01, d02, d12) = (t0 - t1, t0 - t2, t1 - t2);
     let apart = d01 != 0.0 && d02 != 0.0 && d12 != 0.0 && (d01 > 0.0) == (d02 > 0.0);
-    if !apart || !(d01.is_finite() && d02.is_finite()) {
+    if !(apart && d01.is_finite() && d02.is_finite()) {
         return None;
     }
     let p = |t: &TcpTarget| t.wobj_from_tcp.translation.vector;
