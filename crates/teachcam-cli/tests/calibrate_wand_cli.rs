@@ -3,8 +3,8 @@
 //! images and the cameras' intrinsics alone, and every camera is compared with the truth
 //! (`rig_true.json`, world = the L-frame). 100 frames of the dance (1.7 s at 60 Hz) keep the
 //! test short; the library test `calib_wand` measures a longer one.
-//! Tolerances: the acceptance (centres within 1 mm, rotations within 0.05°, wand length
-//! RMS ≤ 0.1 mm). Then `teachcam calibrate refine` mending a bumped camera from a recording of
+//! Tolerances: about 2.5× what the rendered dance gives (centres 0.027 mm, rotations 0.0016°;
+//! the acceptance, 1 mm and 0.05°, let a 30× regression pass), wand length RMS ≤ 0.1 mm. Then `teachcam calibrate refine` mending a bumped camera from a recording of
 //! a tool (the stereo twin of the real recording, the four-camera rig) and its refusals.
 
 #![allow(
@@ -82,8 +82,9 @@ fn calibrate_wand_recovers_the_simulated_rig_and_its_ground_frame() {
             "{}: centre {centre_mm:.4} mm, rotation {angle_deg:.5} deg",
             a.name
         );
-        assert!(centre_mm < 1.0, "{}: {centre_mm} mm", a.name);
-        assert!(angle_deg < 0.05, "{}: {angle_deg} deg", a.name);
+        // Measured 0.023–0.027 mm and 0.0011–0.0016° (2026-12-06): about 2.5×.
+        assert!(centre_mm < 0.07, "{}: {centre_mm} mm", a.name);
+        assert!(angle_deg < 0.004, "{}: {angle_deg} deg", a.name);
     }
 }
 
@@ -226,7 +227,12 @@ fn calibrate_refine_mends_the_stereo_pair_turned_by_0_4_degrees() {
         *angle <= 3.0 * angle_std && *angle < 0.04,
         "{name}: {angle}°"
     );
-    assert!(*centre <= 3.0 * centre_std, "{name}: {centre} mm");
+    // The σ the adjustment writes along the pair's depth is wide (2.9 mm); the centre itself
+    // comes back within 0.30 mm: capped at about 3× that, not at 3σ alone.
+    assert!(
+        *centre <= 3.0 * centre_std && *centre < 1.0,
+        "{name}: {centre} mm"
+    );
     // The held camera as written (1e-6: the file's decimal round trip).
     assert!(
         found[0].1 < 1e-6 && found[0].2 < 1e-6,
@@ -308,7 +314,11 @@ fn calibrate_refine_mends_a_bumped_camera_of_four_and_refuses_what_it_cannot_use
             angle <= 3.0 * angle_std + 1e-6 && angle < 0.01,
             "{name}: {angle}°"
         );
-        assert!(centre <= 3.0 * centre_std + 1e-6, "{name}: {centre} mm");
+        // Measured up to 0.031 mm (σ ≈ 0.023 mm): capped at about 3×, not at 3σ alone.
+        assert!(
+            centre <= 3.0 * centre_std + 1e-6 && centre < 0.1,
+            "{name}: {centre} mm"
+        );
     }
 
     // 12 frames: fewer confident frames than the adjustment needs.

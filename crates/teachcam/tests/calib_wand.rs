@@ -114,9 +114,11 @@ fn a_rendered_wand_dance_calibrates_the_rig_within_a_millimetre() {
             c.name, c.frames, c.dropped, c.rms_px, c.rotation_std_deg, c.centre_std_mm
         );
     }
-    // The acceptance.
-    assert!(centre_mm < 1.0, "camera centres off by {centre_mm} mm");
-    assert!(rotation_deg < 0.05, "rotations off by {rotation_deg} deg");
+    // About 3× what this dance gives (measured 2026-12-06: centres 0.020 mm, rotations
+    // 0.0004°; the bundle's σ 0.01–0.02 mm, 0.001°); the acceptance, 1 mm and 0.05°,
+    // let a 30× regression pass.
+    assert!(centre_mm < 0.06, "camera centres off by {centre_mm} mm");
+    assert!(rotation_deg < 0.002, "rotations off by {rotation_deg} deg");
     assert!(result.length_rms_mm <= 0.1, "{}", result.length_rms_mm);
     assert!(result.converged);
 
@@ -130,8 +132,9 @@ fn a_rendered_wand_dance_calibrates_the_rig_within_a_millimetre() {
         report.posed, report.frames, report.scatter_mm, report.registration_rms_mm
     );
     assert_eq!(report.posed, report.frames);
-    assert!(centre_mm < 1.0, "camera centres off by {centre_mm} mm");
-    assert!(rotation_deg < 0.05, "rotations off by {rotation_deg} deg");
+    // The ground frame adds its own (measured: 0.030 mm, 0.0015°): about 2.5×.
+    assert!(centre_mm < 0.08, "camera centres off by {centre_mm} mm");
+    assert!(rotation_deg < 0.004, "rotations off by {rotation_deg} deg");
     assert!(
         report.cameras_below.is_empty(),
         "{:?}",
@@ -278,7 +281,11 @@ fn camera_frames_with_a_misplaced_marker_are_dropped_by_the_residual_gate() {
         "{dropped} of {corrupted}"
     );
     assert!(dropped * 10 >= corrupted * 9, "{dropped} of {corrupted}");
-    assert!(centre_mm < 1.0 && rotation_deg < 0.05);
+    // Measured 0.0077 mm and 0.0005° with the corrupted views dropped: about 4×.
+    assert!(
+        centre_mm < 0.03 && rotation_deg < 0.002,
+        "{centre_mm} mm, {rotation_deg} deg"
+    );
     assert!(result.length_rms_mm <= 0.1);
 }
 
@@ -381,8 +388,12 @@ fn a_short_dance_and_a_wand_in_one_camera_are_refused_and_a_planar_dance_gives_t
             eprintln!(
                 "planar dance calibrated: centre error {centre_mm:.4} mm, rotation error {rotation_deg:.5} deg"
             );
-            // The acceptance, as for a full dance.
-            assert!(centre_mm < 1.0 && rotation_deg < 0.05);
+            // Measured 0.028 mm and 0.0018° (a planar dance determines the rig less well than
+            // a full one): about 2.5×.
+            assert!(
+                centre_mm < 0.07 && rotation_deg < 0.005,
+                "{centre_mm} mm, {rotation_deg} deg"
+            );
         }
     }
 }
