@@ -845,3 +845,39 @@ fn rapid_modules_pass_rapidchecker() {
         "rapidchecker accepted a broken module"
     );
 }
+
+/// The IRB 120's load diagram (product specification 3HAC035960-001, "Maximum load and moment
+/// of inertia"): J5 = m ((Z + 0.072)² + L²) ≤ 0.175 kg·m², J6 = m L² ≤ 0.085 kg·m², with the
+/// rated 3 kg. Values worked by hand from those formulas.
+#[test]
+fn the_irb120_load_diagram_refuses_a_far_centre_of_gravity() {
+    let robot = Robot::irb120();
+    // 2 kg 200 mm out along the flange's axis: J5 = 2 · 0.272² = 0.148: fits.
+    assert_eq!(robot.load_problem(2.0, [0.0, 0.0, 200.0]), Ok(None));
+    // 3 kg there: J5 = 3 · 0.272² = 0.222 > 0.175.
+    let refusal = robot.load_problem(3.0, [0.0, 0.0, 200.0]).unwrap_err();
+    assert!(
+        refusal.contains("axis 5") && refusal.contains("0.222"),
+        "{refusal}"
+    );
+    // 2 kg 250 mm to the side: J5 = 2 (0.072² + 0.25²) = 0.135 fits, J6 = 2 · 0.0625 = 0.125 > 0.085.
+    let refusal = robot.load_problem(2.0, [250.0, 0.0, 0.0]).unwrap_err();
+    assert!(
+        refusal.contains("axis 6") && refusal.contains("0.125"),
+        "{refusal}"
+    );
+    // Over the rated payload whatever the centre of gravity.
+    assert!(
+        robot
+            .load_problem(3.5, [0.0; 3])
+            .unwrap_err()
+            .contains("3 kg")
+    );
+    // A model without a load diagram says the centre of gravity went unchecked.
+    assert!(
+        Robot::ur5e()
+            .load_problem(2.0, [0.0, 0.0, 500.0])
+            .unwrap()
+            .is_some_and(|note| note.contains("not checked"))
+    );
+}

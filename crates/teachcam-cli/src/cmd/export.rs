@@ -233,14 +233,11 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
             robot.maker.label()
         );
     }
-    if let (Some(mass), Some(rated)) = (args.tool_mass, robot.max_payload_kg)
-        && mass > rated
-    {
-        return Err(anyhow::anyhow!(
-            "--tool-mass {mass}: the {} is rated for {rated} kg (its data sheet's payload); a lighter tool or a larger robot",
-            robot.name
-        ))
-        .rejected();
+    if let Some(mass) = args.tool_mass {
+        let cog = args.tool_cog.unwrap_or_default();
+        if let Err(problem) = robot.load_problem(mass, cog) {
+            return Err(anyhow::anyhow!("--tool-mass: {problem}")).rejected();
+        }
     }
     let home = args.home.map(|h| Joints(h.map(f64::to_radians)));
     if let Some(home) = &home {
@@ -293,12 +290,21 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
     program.gaps = gaps.into_iter().filter(|g| !g.bridgeable).collect();
     if args.tool_mass.is_some() || args.tool_cog.is_some() {
         let assumed = ToolLoad::assumed(&resolved.cell);
-        program.load = Some(ToolLoad {
+        let load = ToolLoad {
             mass_kg: args.tool_mass.unwrap_or(assumed.mass_kg),
             cog_in_flange: args
                 .tool_cog
                 .map_or(assumed.cog_in_flange, nalgebra::Vector3::from),
-        });
+        };
+        let cog: [f64; 3] = load.cog_in_flange.into();
+        match resolved.robot.load_problem(load.mass_kg, cog) {
+            Ok(None) => {}
+            Ok(Some(note)) => crate::announce::warn(&note),
+            Err(problem) => {
+                return Err(anyhow::anyhow!("--tool-mass/--tool-cog: {problem}")).rejected();
+            }
+        }
+        program.load = Some(load);
     }
     let outputs = OutputSet::new();
     match args.dialect {

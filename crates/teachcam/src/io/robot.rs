@@ -210,5 +210,6 @@ pub fn parse_robot(path: &Path, text: &str) -> Result<Robot, FileError> {
         arm,
         limits,
         max_payload_kg: file.max_payload_kg,
+        wrist_inertia: None,
     })
 }

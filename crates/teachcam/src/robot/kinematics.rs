@@ -192,6 +192,75 @@ pub struct Robot {
     pub limits: [AxisLimit; 6],
     /// The heaviest load its maker allows on the flange, kg (`None`: not known).
     pub max_payload_kg: Option<f64>,
+    /// The maker's limits on the load's moments of inertia about the wrist axes (its load
+    /// diagram), `None` when the model carries none.
+    pub wrist_inertia: Option<WristInertia>,
+}
+
+/// A maker's limits on the load's moments of inertia about axes 5 and 6 (ABB's product
+/// specifications, "Maximum load and moment of inertia"): for a load of mass `m` whose centre
+/// of gravity is `z` along the flange's axis and `l` from it, `m ((z + d5)² + l²) ≤ J5` and
+/// `m l² ≤ J6`, with `d5` from axis 5 to the flange. A point mass: the load's own inertia
+/// about its centre is not known to teachcam and counted as zero.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WristInertia {
+    /// Distance from axis 5 to the flange, millimetres.
+    pub axis5_to_flange_mm: f64,
+    /// Largest moment of inertia about axis 5, kg·m².
+    pub j5_max_kgm2: f64,
+    /// Largest moment of inertia about axis 6, kg·m².
+    pub j6_max_kgm2: f64,
+}
+
+impl Robot {
+    /// Why a tool of `mass_kg` with its centre of gravity at `cog_in_flange_mm` (the flange's
+    /// frame, millimetres) is too much for this robot: over the rated payload, or beyond its
+    /// load diagram ([`WristInertia`]); `Ok(Some(note))` when the centre of gravity could not
+    /// be judged (no load diagram in the model), `Ok(None)` when it fits.
+    ///
+    /// # Errors
+    /// One line naming the robot, what was given and the limit.
+    pub fn load_problem(
+        &self,
+        mass_kg: f64,
+        cog_in_flange_mm: [f64; 3],
+    ) -> Result<Option<String>, String> {
+        if !(mass_kg.is_finite() && mass_kg >= 0.0)
+            || cog_in_flange_mm.iter().any(|c| !c.is_finite())
+        {
+            return Err(format!(
+                "tool mass {mass_kg} kg at {cog_in_flange_mm:?} mm: a finite, non-negative mass and a finite centre of gravity expected"
+            ));
+        }
+        if let Some(rated) = self.max_payload_kg
+            && mass_kg > rated
+        {
+            return Err(format!(
+                "tool mass {mass_kg} kg: the {} is rated for {rated} kg (its data sheet's payload); a lighter tool or a larger robot",
+                self.name
+            ));
+        }
+        let Some(limits) = self.wrist_inertia else {
+            return Ok(Some(format!(
+                "the tool's centre of gravity is not checked: the {} model carries no load diagram (see its maker's)",
+                self.name
+            )));
+        };
+        let [x, y, z] = cog_in_flange_mm.map(|c| c / 1000.0);
+        let l2 = x * x + y * y;
+        let d5 = limits.axis5_to_flange_mm / 1000.0;
+        let j5 = mass_kg * ((z + d5).powi(2) + l2);
+        let j6 = mass_kg * l2;
+        for (axis, j, max) in [(5, j5, limits.j5_max_kgm2), (6, j6, limits.j6_max_kgm2)] {
+            if j > max {
+                return Err(format!(
+                    "tool mass {mass_kg} kg with its centre of gravity at ({:.0}, {:.0}, {:.0}) mm from the flange: {j:.3} kg·m² about axis {axis} of the {}, over its load diagram's {max} kg·m²; bring the centre of gravity nearer the flange or lighten the tool",
+                    cog_in_flange_mm[0], cog_in_flange_mm[1], cog_in_flange_mm[2], self.name
+                ));
+            }
+        }
+        Ok(None)
+    }
 }
 
 impl Robot {

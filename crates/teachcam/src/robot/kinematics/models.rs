@@ -2,7 +2,7 @@
 
 use std::f64::consts::FRAC_PI_2;
 
-use super::{Arm, AxisLimit, Maker, OpwParameters, Robot, UrParameters};
+use super::{Arm, AxisLimit, Maker, OpwParameters, Robot, UrParameters, WristInertia};
 
 /// The names `--robot` accepts, in the order help lists them.
 pub const KNOWN_ROBOTS: [&str; 5] = ["irb120", "kr6-r700", "kr6-r900", "ur5e", "ur10e"];
@@ -58,6 +58,13 @@ impl Robot {
                 AxisLimit::from_degrees(-400.0, 400.0, 420.0),
             ],
             max_payload_kg: Some(3.0),
+            // Product specification IRB 120 (3HAC035960-001), "Maximum load and moment of
+            // inertia": J5 = m ((Z + 0.072)² + L²) ≤ 0.175 kg·m², J6 = m L² ≤ 0.085 kg·m².
+            wrist_inertia: Some(WristInertia {
+                axis5_to_flange_mm: 72.0,
+                j5_max_kgm2: 0.175,
+                j6_max_kgm2: 0.085,
+            }),
         }
     }
 
@@ -107,6 +114,7 @@ impl Robot {
                 AxisLimit::from_degrees(-350.0, 350.0, 615.0),
             ],
             max_payload_kg: Some(6.0),
+            wrist_inertia: None,
         }
     }
 
@@ -129,6 +137,7 @@ impl Robot {
             }),
             limits: [AxisLimit::from_degrees(-360.0, 360.0, 180.0); 6],
             max_payload_kg: Some(5.0),
+            wrist_inertia: None,
         }
     }
 
@@ -153,6 +162,7 @@ impl Robot {
             }),
             limits: [slow, slow, fast, fast, fast, fast],
             max_payload_kg: Some(12.5),
+            wrist_inertia: None,
         }
     }
 }
