@@ -20,6 +20,7 @@ pub mod simulate;
 pub mod smooth;
 pub mod smoothing_study;
 pub mod spectrum;
+pub mod strokes;
 pub mod studio;
 pub mod tool_check;
 pub mod track;

@@ -69,6 +69,7 @@ enum Command {
     Check(cmd::check::Args),
     Export(cmd::export::Args),
     Replay(cmd::replay::Args),
+    Strokes(cmd::strokes::Args),
     Align(cmd::align::Args),
     Pivot(cmd::pivot::Args),
 }
@@ -213,6 +214,7 @@ fn main() -> ExitCode {
         Command::Check(args) => cmd::check::run(&args),
         Command::Export(args) => cmd::export::run(&args),
         Command::Replay(args) => cmd::replay::run(&args),
+        Command::Strokes(args) => cmd::strokes::run(&args),
         Command::Align(args) => cmd::align::run(&args),
         Command::Pivot(args) => cmd::pivot::run(&args),
     };

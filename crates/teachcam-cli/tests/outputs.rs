@@ -31,14 +31,15 @@ fn names(folder: &Path) -> Vec<String> {
     names
 }
 
-/// A slow stroke of `frames` frames at 100 Hz, reachable by the IRB 120 with the demo's cell.
+/// A slow stroke of `frames` frames at 100 Hz, the tip 5 mm over the work surface (the world's
+/// xy-plane), reachable by the IRB 120 with the demo's cell.
 fn write_stroke(path: &Path, frames: usize) {
     let tip_in_tool = Point3::new(0.0, 0.0, -150.0);
     let samples = (0..frames)
         .map(|i| {
             let t = i as f64 / 100.0;
             let world_from_tool = pose_from_parts(
-                Vector3::new(20.0 * (0.5 * t).sin(), 10.0 * (0.3 * t).cos(), 250.0),
+                Vector3::new(20.0 * (0.5 * t).sin(), 10.0 * (0.3 * t).cos(), 155.0),
                 UnitQuaternion::identity(),
             );
             Sample::measured(

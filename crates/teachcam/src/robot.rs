@@ -11,7 +11,8 @@
 //! ```
 //! Stages, in the order data flows: [`frames`] (vision↔robot alignment, pivot calibration),
 //! [`kinematics`] (IRB 120 forward and inverse), [`check`] (reach, limits, speeds,
-//! singularities), [`gaps`] (runs of frames without a pose a straight move would cross),
+//! singularities), [`strokes`] (a take cut into the runs the brush paints, trimmed to a span),
+//! [`gaps`] (runs of frames without a pose a straight move would cross),
 //! [`simplify`] (fewer targets within a path tolerance), [`program`] (moves
 //! with speeds from the recorded timing), then the dialects [`rapid`], [`krl`], [`urscript`]
 //! and [`table`] (CSV).
@@ -25,6 +26,7 @@ pub mod program;
 pub mod rapid;
 pub mod replay;
 pub mod simplify;
+pub mod strokes;
 pub mod table;
 pub mod urscript;
 

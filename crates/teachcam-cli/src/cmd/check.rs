@@ -7,10 +7,13 @@ use anyhow::{Context, bail};
 use nalgebra::UnitQuaternion;
 use teachcam::geometry::Pose;
 use teachcam::io::trajectory::read_trajectory;
-use teachcam::robot::check::{CheckConfig, CheckReport, check_path, issue_ranges};
+use teachcam::robot::check::{CheckConfig, CheckReport, check_strokes, issue_ranges};
 use teachcam::robot::gaps::{Gap, GapConfig, find_gaps};
 use teachcam::robot::kinematics::Robot;
 use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
+use teachcam::robot::strokes::{
+    Span, Stroke, StrokeConfig, find_strokes, lowest_height_mm, whole_take,
+};
 use teachcam::robot::table::joints_csv;
 use teachcam::robot::{Cell, TcpTarget, tcp_targets};
 
@@ -24,6 +27,12 @@ use crate::Rejected;
 /// ("frames 12-40: axis 1 too fast, up to 325°/s of 225°/s") and
 /// suggestions (slow down by a factor, a verified `--wobj` to paste); exits with status 1 when the
 /// program would fail on the robot.
+///
+/// Only the strokes are checked (as `teachcam strokes` lists them, within --from/--to): the
+/// runs of frames where the tip is within --lift-mm of the work surface (the world's xy-plane),
+/// cut where it pauses; each stroke on its own, all at one time scale. A take that never
+/// touches the surface (a world whose xy-plane is not the work surface) is checked whole, with
+/// a warning naming the tip's lowest height.
 ///
 /// Frames (CONTRACT.md, "Robot frames"): the trajectory's world is the work object; `--wobj`
 /// places it in the robot's base, `--tcp` places the brush's tip in the maker's flange frame:
@@ -53,6 +62,8 @@ pub struct Args {
     pub tolerance_mm: f64,
     #[command(flatten)]
     pub gaps: GapArgs,
+    #[command(flatten)]
+    pub strokes: StrokeArgs,
     /// Write the chosen joint angles of every frame here (degrees, the maker's convention; then
     /// the maker's configuration: ABB cf1,cf4,cf6,cfx; KUKA s,t; UR configuration 0-7).
     #[arg(long)]
@@ -97,6 +108,133 @@ pub struct CellArgs {
     pub keep_outliers: bool,
 }
 
+/// Which part of the take is checked or exported, and how it splits into strokes (shared by
+/// `check`, `export` and `strokes`).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct StrokeArgs {
+    /// Start of the span used, seconds of the take's time_s [default: the take's start].
+    #[arg(long, allow_hyphen_values = true)]
+    pub from: Option<f64>,
+    /// End of the span used, seconds of the take's time_s [default: the take's end].
+    #[arg(long, allow_hyphen_values = true)]
+    pub to: Option<f64>,
+    /// A stroke ends where the tip rises more than this off the work surface (the world's
+    /// xy-plane, z = 0, which is the work object's: |z| in the trajectory), millimetres.
+    #[arg(long, default_value_t = StrokeConfig::default().lift_mm, value_parser = crate::flags::positive)]
+    pub lift_mm: f64,
+    /// A stroke ends where the tip pauses (slower than --pause-speed-mm-s) this long, seconds.
+    #[arg(long, default_value_t = StrokeConfig::default().pause_s, value_parser = crate::flags::positive)]
+    pub pause_s: f64,
+    /// Speed under which the tip pauses, mm/s.
+    #[arg(long, default_value_t = StrokeConfig::default().pause_speed_mm_s, value_parser = crate::flags::positive)]
+    pub pause_speed_mm_s: f64,
+}
+
+impl Default for StrokeArgs {
+    /// The whole take, [`StrokeConfig::default`].
+    fn default() -> Self {
+        let config = StrokeConfig::default();
+        Self {
+            from: None,
+            to: None,
+            lift_mm: config.lift_mm,
+            pause_s: config.pause_s,
+            pause_speed_mm_s: config.pause_speed_mm_s,
+        }
+    }
+}
+
+impl StrokeArgs {
+    /// The options of [`find_strokes`].
+    pub fn config(&self) -> StrokeConfig {
+        StrokeConfig {
+            lift_mm: self.lift_mm,
+            pause_s: self.pause_s,
+            pause_speed_mm_s: self.pause_speed_mm_s,
+        }
+    }
+
+    /// The targets within `--from`/`--to` of a take running `take_s` (usage error, exit 2,
+    /// naming the take's span, for a span outside it or empty) and their strokes (none: exit
+    /// 1 naming the tip's lowest height).
+    pub fn strokes(
+        &self,
+        targets: &[TcpTarget],
+        take_s: (f64, f64),
+    ) -> anyhow::Result<(Vec<TcpTarget>, Vec<Stroke>)> {
+        let (trimmed, strokes) = self.split(targets, take_s)?;
+        match strokes {
+            Ok(strokes) => Ok((trimmed, strokes)),
+            Err(none) => Err(anyhow::anyhow!("{none}")).rejected(),
+        }
+    }
+
+    /// [`StrokeArgs::strokes`] for `check` and `export`: a span that never touches the work
+    /// surface (a world whose xy-plane is not the surface) is checked whole, as one stroke,
+    /// with a warning saying so; a span without two poses is refused (exit 1).
+    pub fn program_strokes(
+        &self,
+        targets: &[TcpTarget],
+        take_s: (f64, f64),
+    ) -> anyhow::Result<(Vec<TcpTarget>, Vec<Stroke>)> {
+        let (trimmed, strokes) = self.split(targets, take_s)?;
+        match strokes {
+            Ok(strokes) => Ok((trimmed, strokes)),
+            Err(none) => {
+                let Some(whole) = whole_take(&trimmed) else {
+                    return Err(anyhow::anyhow!(
+                        "fewer than two frames with a pose in the span checked"
+                    ))
+                    .rejected();
+                };
+                crate::announce::warn(&format!(
+                    "{none}: the whole span is taken as one stroke (is the world's xy-plane the work surface? --lift-mm)"
+                ));
+                Ok((trimmed, vec![whole]))
+            }
+        }
+    }
+
+    /// The trimmed targets and their strokes, or the line saying there is none.
+    fn split(&self, targets: &[TcpTarget], take_s: (f64, f64)) -> anyhow::Result<Split> {
+        let span = Span::within(take_s.0, take_s.1, self.from, self.to)?;
+        let trimmed = span.trim(targets);
+        let strokes = find_strokes(&trimmed, &self.config());
+        if !strokes.is_empty() {
+            return Ok((trimmed, Ok(strokes)));
+        }
+        let lowest = lowest_height_mm(&trimmed).map_or_else(
+            || "no frame has a pose".to_string(),
+            |h| format!("the tip's lowest height is {h:.1} mm"),
+        );
+        let none = format!(
+            "no stroke in {:.3}-{:.3} s: the tip never comes within --lift-mm {} of the work surface (the world's xy-plane) for two frames; {lowest}",
+            span.from_s, span.to_s, self.lift_mm
+        );
+        Ok((trimmed, Err(none)))
+    }
+}
+
+/// The targets of a span and their strokes, or the line saying it has none.
+type Split = (Vec<TcpTarget>, Result<Vec<Stroke>, String>);
+
+/// One line naming the strokes of a take, for `check` and `export`.
+pub fn strokes_line(strokes: &[Stroke], args: &StrokeArgs) -> String {
+    let spans: Vec<String> = strokes
+        .iter()
+        .map(|s| format!("{}-{}", s.first.0, s.last.0))
+        .collect();
+    format!(
+        "{} stroke{} (frames {}; split where the tip rises over {} mm off the work surface or pauses under {} mm/s for {} s)",
+        strokes.len(),
+        if strokes.len() == 1 { "" } else { "s" },
+        spans.join(", "),
+        args.lift_mm,
+        args.pause_speed_mm_s,
+        args.pause_s
+    )
+}
+
 /// How `check` and `export` treat gaps in the data (frames lost, or outliers dropped).
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct GapArgs {
@@ -112,22 +250,25 @@ pub struct GapArgs {
 }
 
 impl GapArgs {
-    /// The gaps of the targets, judged at `tolerance_mm`; the lines naming those too long to
+    /// The gaps within the strokes of the targets, judged at `tolerance_mm`; the lines naming those too long to
     /// bridge (as warnings when `--bridge-gaps`); `Err` with one line when such a gap is not
     /// to be bridged.
     pub fn judge(
         &self,
         targets: &[TcpTarget],
+        strokes: &[Stroke],
         tolerance_mm: f64,
     ) -> (Vec<Gap>, String, Option<String>) {
         use std::fmt::Write as _;
-        let gaps = find_gaps(
-            targets,
-            &GapConfig {
-                tolerance_mm,
-                max_gap_s: self.max_gap_s,
-            },
-        );
+        let config = GapConfig {
+            tolerance_mm,
+            max_gap_s: self.max_gap_s,
+        };
+        // Within each stroke: between strokes the program lifts the brush.
+        let gaps: Vec<Gap> = strokes
+            .iter()
+            .flat_map(|s| find_gaps(&targets[s.targets.clone()], &config))
+            .collect();
         let too_long: Vec<&Gap> = gaps.iter().filter(|g| !g.bridgeable).collect();
         let criterion = match self.max_gap_s {
             Some(s) => format!("longer than --max-gap-s {s}"),
@@ -172,6 +313,8 @@ pub struct Resolved {
     pub targets: Vec<TcpTarget>,
     /// Frames without a pose.
     pub gaps: usize,
+    /// The take's first and last times, seconds (every frame's, with a pose or not).
+    pub take_s: (f64, f64),
     /// Check options.
     pub config: CheckConfig,
 }
@@ -225,9 +368,14 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         time_scale: args.time_scale,
         ..CheckConfig::default()
     };
+    let take_s = (
+        trajectory.samples.first().map_or(0.0, |s| s.time_s),
+        trajectory.samples.last().map_or(0.0, |s| s.time_s),
+    );
     Ok(Resolved {
         robot,
         cell,
+        take_s,
         gaps: trajectory.len() - targets.len(),
         targets,
         config,
@@ -323,10 +471,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         teachcam::io::check_outputs(&[teachcam::io::Output::csv(path)], &inputs)?;
     }
     let resolved = resolve(&args.trajectory, &args.cell)?;
-    let report = check_path(
+    let (targets, strokes) = args
+        .strokes
+        .program_strokes(&resolved.targets, resolved.take_s)?;
+    let report = check_strokes(
         &resolved.robot,
         &resolved.cell,
-        &resolved.targets,
+        &targets,
+        &stroke_ranges(&strokes),
         &resolved.config,
     );
     if let Some(path) = &args.joints_out {
@@ -336,8 +488,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             &format!("joints of {} frames", report.frames.len()),
         );
     }
+    println!("{}", strokes_line(&strokes, &args.strokes));
     print!("{}", summary(&report, resolved.gaps, &resolved.robot.name));
-    let (_, gap_lines, gap_refusal) = args.gaps.judge(&resolved.targets, args.tolerance_mm);
+    let (_, gap_lines, gap_refusal) = args.gaps.judge(&targets, &strokes, args.tolerance_mm);
     print!("{gap_lines}");
     if let Some(refusal) = gap_refusal {
         return Err(anyhow::anyhow!("{}: {refusal}", args.trajectory.display())).rejected();
@@ -353,6 +506,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ))
         .rejected()
     }
+}
+
+/// The strokes' ranges of targets.
+pub fn stroke_ranges(strokes: &[Stroke]) -> Vec<std::ops::Range<usize>> {
+    strokes.iter().map(|s| s.targets.clone()).collect()
 }
 
 /// Why a failing check fails, in one line: a given time scale too fast for the arm names the

@@ -181,6 +181,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             bridge_gaps: false,
             max_gap_s: None,
         },
+        strokes: super::check::StrokeArgs::default(),
         output: rapid_path.clone(),
         tolerance_mm: 0.5,
         tolerance_deg: 0.5,

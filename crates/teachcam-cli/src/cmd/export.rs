@@ -3,16 +3,16 @@
 use std::path::PathBuf;
 
 use teachcam::io::{Output, OutputSet, check_outputs};
-use teachcam::robot::check::{CheckReport, check_path};
+use teachcam::robot::check::{CheckReport, check_strokes};
 use teachcam::robot::kinematics::{Joints, Maker};
 use teachcam::robot::krl::{krl_name_problem, krl_program};
-use teachcam::robot::program::{ToolLoad, build_program, check_home, identifier};
+use teachcam::robot::program::{ToolLoad, build_stroke_program, check_home, identifier};
 use teachcam::robot::rapid::{RapidConfig, rapid_module, rapid_name_problem};
 use teachcam::robot::simplify::SimplifyConfig;
 use teachcam::robot::table::poses_csv;
 use teachcam::robot::urscript::{UrScriptConfig, urscript_name_problem, urscript_program};
 
-use super::check::{CellArgs, GapArgs, resolve, summary};
+use super::check::{CellArgs, GapArgs, StrokeArgs, resolve, stroke_ranges, strokes_line, summary};
 use crate::Rejected;
 
 /// The program dialects.
@@ -72,6 +72,8 @@ pub struct Args {
     pub cell: CellArgs,
     #[command(flatten)]
     pub gaps: GapArgs,
+    #[command(flatten)]
+    pub strokes: StrokeArgs,
     /// Output file (for krl, the .src; the .dat is written beside it).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -184,6 +186,8 @@ pub struct Written {
     pub moves: usize,
     /// The robot check of every frame.
     pub report: CheckReport,
+    /// The take's strokes, one line.
+    pub strokes: String,
 }
 
 /// Checks the trajectory on the robot and writes the program; prints the check's summary only
@@ -249,7 +253,10 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         })?;
     }
     let resolved = resolve(&args.trajectory, &args.cell)?;
-    let (gaps, gap_lines, gap_refusal) = args.gaps.judge(&resolved.targets, args.tolerance_mm);
+    let (targets, strokes) = args
+        .strokes
+        .program_strokes(&resolved.targets, resolved.take_s)?;
+    let (gaps, gap_lines, gap_refusal) = args.gaps.judge(&targets, &strokes, args.tolerance_mm);
     print!("{gap_lines}");
     if let Some(refusal) = gap_refusal {
         return Err(anyhow::anyhow!(
@@ -258,10 +265,12 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         ))
         .rejected();
     }
-    let report = check_path(
+    let ranges = stroke_ranges(&strokes);
+    let report = check_strokes(
         &resolved.robot,
         &resolved.cell,
-        &resolved.targets,
+        &targets,
+        &ranges,
         &resolved.config,
     );
     if !report.passes() {
@@ -279,7 +288,15 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         position_tolerance: args.tolerance_mm,
         orientation_tolerance: args.tolerance_deg.to_radians(),
     };
-    let mut program = build_program(&name, &resolved.cell, &report, &tolerance);
+    // The report's frames are the strokes' in order.
+    let mut frame_ranges = Vec::with_capacity(ranges.len());
+    let mut at = 0;
+    for range in &ranges {
+        frame_ranges.push(at..at + range.len());
+        at += range.len();
+    }
+    let mut program =
+        build_stroke_program(&name, &resolved.cell, &report, &tolerance, &frame_ranges);
     if args.dialect != Dialect::Csv {
         program
             .add_approach(args.approach, resolved.config.speed_fraction)
@@ -328,6 +345,7 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         files: outputs.commit()?,
         moves: program.moves.len(),
         report,
+        strokes: strokes_line(&strokes, &args.strokes),
     })
 }
 
@@ -395,6 +413,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         files,
         moves,
         report,
+        strokes,
     } = write_program(args)?;
     let what = if args.dialect == Dialect::Csv {
         format!("{} frames", report.frames.len())
@@ -404,6 +423,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     crate::announce::wrote(&files, &what);
     if args.dialect != Dialect::Csv {
         crate::announce::say(&report.timing.describe(&report.robot.name));
+        crate::announce::say(&strokes);
     }
     Ok(())
 }

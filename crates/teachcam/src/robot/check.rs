@@ -428,6 +428,107 @@ pub fn check_path(
     report
 }
 
+/// Checks the strokes of a take (`strokes`: ranges of `targets`, in order) at one time scale:
+/// each stroke on its own (the arm does not follow the demonstration between strokes: a
+/// program lifts the brush and moves with a joint move), the report's frames the strokes'
+/// frames in order. Under [`TimeScale::Auto`] the factor is the largest any stroke needs; the
+/// suggestions are those of the strokes' frames taken as one path. One stroke over every
+/// target is exactly [`check_path`].
+#[must_use]
+pub fn check_strokes(
+    robot: &Robot,
+    cell: &Cell,
+    targets: &[TcpTarget],
+    strokes: &[std::ops::Range<usize>],
+    config: &CheckConfig,
+) -> CheckReport {
+    if let [only] = strokes
+        && *only == (0..targets.len())
+    {
+        return check_path(robot, cell, targets, config);
+    }
+    let painted: Vec<TcpTarget> = strokes
+        .iter()
+        .flat_map(|s| targets[s.clone()].iter().copied())
+        .collect();
+    // Each stroke at its recorded timing, then at the factor the slowest one needs.
+    let recorded: Vec<CheckReport> = strokes
+        .iter()
+        .map(|s| check_timed(robot, cell, &targets[s.clone()], config))
+        .collect();
+    let (factor, setter) = match config.time_scale {
+        TimeScale::Fixed(factor) => (factor, None),
+        TimeScale::Auto => recorded
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r.timing.factor, Some(i)))
+            .fold((1.0, None), |a, b| if b.0 > a.0 { b } else { a }),
+    };
+    let scaled = scale_time(targets, factor);
+    let fixed = CheckConfig {
+        time_scale: TimeScale::Fixed(factor),
+        ..*config
+    };
+    let parts: Vec<CheckReport> = strokes
+        .iter()
+        .map(|s| check_at_timing(robot, cell, &scaled[s.clone()], &fixed, factor))
+        .collect();
+    let mut report = CheckReport {
+        robot: robot.clone(),
+        frames: parts
+            .iter()
+            .flat_map(|p| p.frames.iter().cloned())
+            .collect(),
+        peak_speed_ratio: parts.iter().map(|p| p.peak_speed_ratio).fold(0.0, f64::max),
+        peak_acceleration_ratio: config.max_acceleration.map(|_| {
+            parts
+                .iter()
+                .filter_map(|p| p.peak_acceleration_ratio)
+                .fold(0.0, f64::max)
+        }),
+        peak_joint_speed: std::array::from_fn(|i| {
+            parts
+                .iter()
+                .map(|p| p.peak_joint_speed[i])
+                .fold(0.0, f64::max)
+        }),
+        peak_joint_acceleration: std::array::from_fn(|i| {
+            parts
+                .iter()
+                .map(|p| p.peak_joint_acceleration[i])
+                .fold(0.0, f64::max)
+        }),
+        suggestions: Vec::new(),
+        timing: Timing {
+            factor,
+            limiting_axis: None,
+            automatic: config.time_scale == TimeScale::Auto,
+            fits: None,
+        },
+    };
+    report.timing.limiting_axis = match setter {
+        Some(i) => recorded[i].timing.limiting_axis,
+        None => recorded
+            .iter()
+            .max_by(|a, b| a.peak_speed_ratio.total_cmp(&b.peak_speed_ratio))
+            .and_then(|r| r.timing.limiting_axis),
+    };
+    if !report.timing.automatic && report.speed_failure().is_some() {
+        let auto = CheckConfig {
+            time_scale: TimeScale::Auto,
+            ..*config
+        };
+        let fits = strokes
+            .iter()
+            .map(|s| check_timed(robot, cell, &targets[s.clone()], &auto))
+            .map(|r| r.speed_failure().is_none().then_some(r.timing.factor))
+            .try_fold(1.0f64, |a, f| f.map(|f| a.max(f)));
+        report.timing.fits = fits;
+    }
+    report.suggestions = suggestions(robot, cell, &painted, &report, config);
+    report
+}
+
 /// [`check_path`] without the suggestions (which run this again on each candidate).
 fn check_timed(
     robot: &Robot,

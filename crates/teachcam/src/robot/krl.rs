@@ -2,7 +2,7 @@
 //!
 //! The `.src` sets `$TOOL` (the TCP in the FLANGE frame), `$BASE` (the work object in
 //! `$ROBROOT`) and `$LOAD` (the tool's mass and centre of gravity in FLANGE), approaches the
-//! first point with a `PTP` (KUKA's practice: only a PTP honours a point's Status and Turn,
+//! first point of each stroke (after a comment naming it) with a `PTP` (KUKA's practice: only a PTP honours a point's Status and Turn,
 //! which pin the arm's configuration to the branch the check chose), then follows the path
 //! with `LIN` moves, `$VEL.CP` per move from the recorded timing and `C_DIS` blending within
 //! the path tolerance.
@@ -205,14 +205,17 @@ pub fn krl_program(program: &Program) -> KrlProgram {
     if let Some(home) = &home {
         let _ = writeln!(src, "{home}");
     }
-    if !program.moves.is_empty() {
-        let _ = writeln!(src, "  PTP XP1");
-    }
-    for (i, m) in program.moves.iter().enumerate().skip(1) {
+    for (i, m) in program.moves.iter().enumerate() {
         let speed = (m.tcp_speed / 1000.0).clamp(MIN_CP_SPEED_M_S, MAX_CP_SPEED_M_S);
         let blend = if program.stops_at(i) { "" } else { " C_DIS" };
         if let Some(gap) = program.gap_crossed_by(i) {
             let _ = writeln!(src, "  ; Gap bridged by the next move: {gap}.");
+        }
+        if let Some(stroke) = program.stroke_comment(i) {
+            // Each stroke's approach (the first move, or from the previous stroke's retract)
+            // is a PTP.
+            let _ = writeln!(src, "  ; {stroke}.\n  PTP XP{}", i + 1);
+            continue;
         }
         let _ = writeln!(
             src,

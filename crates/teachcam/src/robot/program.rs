@@ -46,6 +46,9 @@ pub struct ProgramMove {
     pub orientation_speed: f64,
     /// Recorded time from the previous target, seconds.
     pub duration_s: f64,
+    /// The stroke it belongs to, 0-based ([`build_stroke_program`]); its approach and retract
+    /// too. The first move of a stroke is a joint move.
+    pub stroke: usize,
 }
 
 /// The tool's load on the flange: RAPID's `tload`, KRL's `$LOAD`, URScript's `set_payload`.
@@ -74,7 +77,8 @@ impl ToolLoad {
     }
 }
 
-/// A program: a name, the robot, the cell and the moves, the first one the approach.
+/// A program: a name, the robot, the cell and the moves, stroke by stroke, each stroke's first
+/// move (its approach) a joint move.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Program {
     /// Identifier of the program (a valid RAPID/KRL/URScript name).
@@ -130,21 +134,54 @@ impl Program {
 
     /// True when the robot must stop exactly at move `index` rather than blend through it:
     /// the last move, the paint point the approach lands on and the one the retract lifts
-    /// from (the brush touches down and lifts off there).
+    /// from (the brush touches down and lifts off there), the last move of a stroke.
     #[must_use]
     pub fn stops_at(&self, index: usize) -> bool {
         let kind = |i: usize| self.moves.get(i).map(|m| m.kind);
         index + 1 >= self.moves.len()
             || (index > 0 && kind(index - 1) == Some(MoveKind::Approach))
             || kind(index + 1) == Some(MoveKind::Retract)
+            || self.starts_stroke(index + 1)
     }
 
-    /// Adds an approach `distance_mm` back along the tool's axis (the TCP's z, on the side of
-    /// the flange: away from the work) from the first point, and the same retract after the last one, each with the
-    /// joints closest to its paint point's in the same configuration; the linear moves onto
-    /// and off the paint run at [`APPROACH_SPEED_MM_S`], slower when an axis would exceed
-    /// `speed_fraction` of its limit. Nothing changes for a distance of zero or an empty
-    /// program.
+    /// True when move `index` starts a stroke (the first move, or one whose stroke differs
+    /// from the previous move's): it is a joint move, after the stroke's comment.
+    #[must_use]
+    pub fn starts_stroke(&self, index: usize) -> bool {
+        match (index.checked_sub(1), self.moves.get(index)) {
+            (_, None) => false,
+            (None, Some(_)) => true,
+            (Some(before), Some(m)) => self.moves[before].stroke != m.stroke,
+        }
+    }
+
+    /// The comment naming the stroke move `index` starts (`None` when it starts none):
+    /// "Stroke 2 of 3: frames 45-78" (the frames its paint points come from).
+    #[must_use]
+    pub fn stroke_comment(&self, index: usize) -> Option<String> {
+        if !self.starts_stroke(index) {
+            return None;
+        }
+        let stroke = self.moves[index].stroke;
+        let count = self.moves.last().map_or(0, |m| m.stroke + 1);
+        let mut painted = self
+            .moves
+            .iter()
+            .filter(|m| m.stroke == stroke && m.kind == MoveKind::Paint);
+        let first = painted.next()?.target.frame.0;
+        let last = painted.next_back().map_or(first, |m| m.target.frame.0);
+        Some(format!(
+            "Stroke {} of {count}: frames {first}-{last}",
+            stroke + 1
+        ))
+    }
+
+    /// Adds, to every stroke, an approach `distance_mm` back along the tool's axis (the TCP's
+    /// z, on the side of the flange: away from the work) from its first point, and the same
+    /// retract after its last one, each with the joints closest to its paint point's in the
+    /// same configuration; the linear moves onto and off the paint run at
+    /// [`APPROACH_SPEED_MM_S`], slower when an axis would exceed `speed_fraction` of its limit.
+    /// Nothing changes for a distance of zero or an empty program.
     ///
     /// Near the edge of the reach the distance shortens, down to 40 % of the one asked.
     ///
@@ -154,18 +191,39 @@ impl Program {
         if distance_mm <= 0.0 || self.moves.is_empty() {
             return Ok(());
         }
-        let first = self.moves[0];
-        let last = self.moves[self.moves.len() - 1];
-        let approach = self.lifted_within(&first, distance_mm, MoveKind::Approach, "first")?;
-        let retract = self.lifted_within(&last, distance_mm, MoveKind::Retract, "last")?;
-        // The move onto the first point now comes from the approach pose.
-        let mut onto = first;
-        self.timed(&mut onto, &approach, speed_fraction);
-        let mut off = retract;
-        self.timed(&mut off, &last, speed_fraction);
-        self.moves[0] = onto;
-        self.moves.insert(0, approach);
-        self.moves.push(off);
+        let strokes = self.moves.last().map_or(0, |m| m.stroke + 1);
+        let mut moves = Vec::with_capacity(self.moves.len() + 2 * strokes);
+        let mut start = 0;
+        while start < self.moves.len() {
+            let stroke = self.moves[start].stroke;
+            let mut end = start + 1;
+            while end < self.moves.len() && self.moves[end].stroke == stroke {
+                end += 1;
+            }
+            let (first, last) = (self.moves[start], self.moves[end - 1]);
+            let (first_name, last_name) = if strokes > 1 {
+                (
+                    format!("first point of stroke {}", stroke + 1),
+                    format!("last point of stroke {}", stroke + 1),
+                )
+            } else {
+                ("first point".to_string(), "last point".to_string())
+            };
+            let approach =
+                self.lifted_within(&first, distance_mm, MoveKind::Approach, &first_name)?;
+            let retract = self.lifted_within(&last, distance_mm, MoveKind::Retract, &last_name)?;
+            // The move onto the first point now comes from the approach pose.
+            let mut onto = first;
+            self.timed(&mut onto, &approach, speed_fraction);
+            let mut off = retract;
+            self.timed(&mut off, &last, speed_fraction);
+            moves.push(approach);
+            moves.push(onto);
+            moves.extend_from_slice(&self.moves[start + 1..end]);
+            moves.push(off);
+            start = end;
+        }
+        self.moves = moves;
         Ok(())
     }
 
@@ -230,7 +288,7 @@ impl Program {
                 "retract"
             };
             return Err(format!(
-                "the {what} pose {distance_mm} mm along the tool's axis from the {which} point is out of the {}'s reach in its configuration (a shorter --approach, or 0 for none)",
+                "the {what} pose {distance_mm} mm along the tool's axis from the {which} is out of the {}'s reach in its configuration (a shorter --approach, or 0 for none)",
                 self.robot.name
             ));
         };
@@ -245,6 +303,7 @@ impl Program {
             tcp_speed: 0.0,
             orientation_speed: 0.0,
             duration_s: 0.0,
+            stroke: at.stroke,
         })
     }
 
@@ -289,7 +348,7 @@ pub fn check_home(robot: &Robot, home: &Joints) -> Result<(), String> {
 }
 
 /// Builds a program from a checked path, dropping the targets that the simplified path
-/// passes within tolerance.
+/// passes within tolerance: one stroke over every frame ([`build_stroke_program`]).
 #[must_use]
 pub fn build_program(
     name: &str,
@@ -297,31 +356,52 @@ pub fn build_program(
     report: &CheckReport,
     tolerance: &SimplifyConfig,
 ) -> Program {
-    let targets: Vec<TcpTarget> = report.frames.iter().map(|f| f.target).collect();
-    let kept = simplify(&targets, tolerance);
-    let mut moves: Vec<ProgramMove> = Vec::with_capacity(kept.len());
-    for &k in &kept {
-        let frame = &report.frames[k];
-        let (tcp_speed, orientation_speed, duration_s) = match moves.last() {
-            None => (0.0, 0.0, 0.0),
-            Some(previous) => {
-                let a = &previous.target.wobj_from_tcp;
-                let b = &frame.target.wobj_from_tcp;
-                let dt = frame.target.time_s - previous.target.time_s;
-                let distance = (b.translation.vector - a.translation.vector).norm();
-                let angle = a.rotation.angle_to(&b.rotation);
-                (distance / dt, angle / dt, dt)
-            }
-        };
-        moves.push(ProgramMove {
-            kind: MoveKind::Paint,
-            target: frame.target,
-            joints: frame.joints,
-            configuration: frame.configuration,
-            tcp_speed,
-            orientation_speed,
-            duration_s,
-        });
+    let whole = std::iter::once(0..report.frames.len()).collect::<Vec<_>>();
+    build_stroke_program(name, cell, report, tolerance, &whole)
+}
+
+/// Builds a program from the checked strokes of a take (`strokes`: ranges of the report's
+/// frames, in order, as [`crate::robot::check::check_strokes`] lays them out), each simplified
+/// on its own (its first and last frames kept), each move timed from the previous one of its
+/// stroke; the first move of each stroke has no speed (a joint move reaches it).
+#[must_use]
+pub fn build_stroke_program(
+    name: &str,
+    cell: &Cell,
+    report: &CheckReport,
+    tolerance: &SimplifyConfig,
+    strokes: &[std::ops::Range<usize>],
+) -> Program {
+    let mut moves: Vec<ProgramMove> = Vec::with_capacity(report.frames.len());
+    for (stroke, range) in strokes.iter().enumerate() {
+        let frames = &report.frames[range.clone()];
+        let targets: Vec<TcpTarget> = frames.iter().map(|f| f.target).collect();
+        let mut previous: Option<TcpTarget> = None;
+        for k in simplify(&targets, tolerance) {
+            let frame = &frames[k];
+            let (tcp_speed, orientation_speed, duration_s) = match previous {
+                None => (0.0, 0.0, 0.0),
+                Some(previous) => {
+                    let a = &previous.wobj_from_tcp;
+                    let b = &frame.target.wobj_from_tcp;
+                    let dt = frame.target.time_s - previous.time_s;
+                    let distance = (b.translation.vector - a.translation.vector).norm();
+                    let angle = a.rotation.angle_to(&b.rotation);
+                    (distance / dt, angle / dt, dt)
+                }
+            };
+            previous = Some(frame.target);
+            moves.push(ProgramMove {
+                kind: MoveKind::Paint,
+                target: frame.target,
+                joints: frame.joints,
+                configuration: frame.configuration,
+                tcp_speed,
+                orientation_speed,
+                duration_s,
+                stroke,
+            });
+        }
     }
     Program {
         name: identifier(name),

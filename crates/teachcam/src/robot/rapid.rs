@@ -9,8 +9,9 @@
 //! `robtarget = [trans, rot (q1..q4 = qw, qx, qy, qz), robconf [cf1, cf4, cf6, cfx], extax]`,
 //! `speeddata = [v_tcp mm/s, v_ori °/s, v_leax mm/s, v_reax °/s]`; the module's own `zonedata`
 //! `zTeachcam` from the path tolerance, and `fine` where the brush touches down, lifts off and
-//! at the end. The first target is approached with a `MoveJ` at the predefined `v100`
-//! (100 mm/s): a careful approach from wherever the robot stands. `ConfJ \On`, `ConfL \On`
+//! at the end. The first target of each stroke (its approach pose) is reached with a `MoveJ`
+//! at the predefined `v100` (100 mm/s), after a comment naming the stroke: a careful approach
+//! from wherever the robot stands, or from the previous stroke's retract. `ConfJ \On`, `ConfL \On`
 //! (each `robconf` the quadrants the checked joints take; a move whose axis 1, 4 or 6 turns
 //! more than a quadrant is a `MoveJ`) and `SingArea` (`\Wrist` only where axis 5 comes near
 //! zero) are set explicitly.
@@ -150,6 +151,9 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
     };
     home(&mut out);
     if !program.moves.is_empty() {
+        if let Some(stroke) = program.stroke_comment(0) {
+            let _ = writeln!(out, "    ! {stroke}.");
+        }
         let _ = writeln!(
             out,
             "    MoveJ {}, v100, fine, {tool}\\WObj:={wobj};",
@@ -177,6 +181,17 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
             };
             if let Some(gap) = program.gap_crossed_by(i) {
                 let _ = writeln!(out, "    ! Gap bridged by the next move: {gap}.");
+            }
+            if let Some(stroke) = program.stroke_comment(i) {
+                // A stroke after the first: a joint move from the previous stroke's retract
+                // to this one's approach.
+                let _ = writeln!(out, "    ! {stroke}.");
+                let _ = writeln!(
+                    out,
+                    "    MoveJ {}, v100, fine, {tool}\\WObj:={wobj};",
+                    target_name(i)
+                );
+                continue;
             }
             let instruction = if let Some(axis) = joint_moves[i] {
                 let _ = writeln!(

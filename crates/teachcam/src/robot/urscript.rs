@@ -1,6 +1,7 @@
 //! Universal Robots URScript: one `def … end` function that sets the TCP (`set_tcp`) and the
 //! payload (`set_payload`), holds the work object as a pose, moves to the first target's joint
-//! solution with `movej` (the arm starts in the configuration the check chose) and then
+//! solution of each stroke with `movej` after a comment naming the stroke (the arm starts in
+//! the configuration the check chose) and then
 //! linearly (`movel`) through every target at the recorded speeds, blending within the path
 //! tolerance.
 //!
@@ -127,7 +128,10 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
     }
     for (i, m) in program.moves.iter().enumerate() {
         let pose = pose_literal(&m.target.wobj_from_tcp);
-        if i == 0 {
+        if let Some(stroke) = program.stroke_comment(i) {
+            // Each stroke's approach (the first move, or from the previous stroke's retract)
+            // is a joint move.
+            let _ = writeln!(out, "  # {stroke}.");
             match m.joints {
                 Some(joints) => {
                     let _ = writeln!(out, "{}", joint_move(&joints));

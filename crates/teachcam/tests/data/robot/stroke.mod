@@ -34,6 +34,7 @@ MODULE stroke
     ConfJ \On;
     ConfL \On;
     SingArea \Off;
+    ! Stroke 1 of 1: frames 0-29.
     MoveJ p0001, v100, fine, tTeachcam\WObj:=wTeachcam;
     path_1;
   ENDPROC
