@@ -16,6 +16,7 @@ pub mod rig;
 pub mod robot;
 pub mod tool;
 pub mod wand;
+pub mod wand_points;
 pub mod tracking;
 pub mod trajectory;
 

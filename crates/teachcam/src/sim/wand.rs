@@ -41,7 +41,7 @@ pub fn contract_wand() -> Wand {
     Wand {
         name: "wand".into(),
         marker_diameter_mm: 14.0,
-        markers_mm: [0.0, 160.0, 500.0],
+        markers_mm: vec![0.0, 160.0, 500.0],
     }
 }
 

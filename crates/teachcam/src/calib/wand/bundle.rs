@@ -39,7 +39,7 @@ fn basis(axis: &Unit<Vector3<f64>>) -> (Vector3<f64>, Vector3<f64>) {
 
 /// The wand's marker positions along its axis from marker 0, millimetres.
 pub(super) struct WandBody {
-    pub positions_mm: [f64; 3],
+    pub positions_mm: Vec<f64>,
 }
 
 impl Body<5> for WandBody {

@@ -10,9 +10,26 @@ use nalgebra::{DMatrix, Matrix3, Point2, Vector3};
 use crate::geometry::{Pose, pose_from_parts};
 use crate::track::gates::median;
 
-/// Corresponding normalised (undistorted, `K⁻¹`) coordinates of one frame's three wand
-/// markers in cameras a and b, in wand order.
-pub(super) type PairFrame = ([Point2<f64>; 3], [Point2<f64>; 3]);
+/// Corresponding normalised (undistorted, `K⁻¹`) coordinates of one frame's wand markers in
+/// cameras a and b, in wand order.
+pub(super) type PairFrame = (Vec<Point2<f64>>, Vec<Point2<f64>>);
+
+/// One frame's wand in cameras a and b, b's order possibly the reverse of a's unless `fixed`
+/// (both images told the ends apart).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct PairCandidate {
+    /// Camera a's markers.
+    pub a: Vec<Point2<f64>>,
+    /// Camera b's markers.
+    pub b: Vec<Point2<f64>>,
+    /// Whether b's order is known to match a's.
+    pub fixed: bool,
+}
+
+/// Random samples drawn by [`resolve_pairing`]: with half the frames' pairings wrong a sample
+/// of four frames is all right with probability 1/16, so 600 samples miss with
+/// probability (15/16)^600 ≈ 1e-17.
+const PAIRING_SAMPLES: usize = 600;
 
 /// MAD multiples of the Sampson gate of the refit.
 const SAMPSON_GATE_MADS: f64 = 5.0;
@@ -22,7 +39,7 @@ const SAMPSON_GATE_MADS: f64 = 5.0;
 /// with the points in front).
 pub(super) fn relative_pose(frames: &[PairFrame], length_mm: f64) -> Option<Pose> {
     let all: Vec<usize> = (0..frames.len()).collect();
-    let first = essential(frames, &all)?;
+    let first = essential(&correspondences(frames, &all))?;
     let errors: Vec<f64> = frames
         .iter()
         .map(|(a, b)| {
@@ -34,15 +51,15 @@ pub(super) fn relative_pose(frames: &[PairFrame], length_mm: f64) -> Option<Pose
         .collect();
     let gate = super::robust_gate(&errors, SAMPSON_GATE_MADS)?;
     let inliers: Vec<usize> = (0..frames.len()).filter(|&i| errors[i] <= gate).collect();
-    let e = essential(frames, &inliers)?;
+    let e = essential(&correspondences(frames, &inliers))?;
     let (rotation, direction) = decompose(&e, frames, &inliers)?;
     // Scale: the wand's end-to-end length over the unit-baseline triangulation.
     let ratios: Vec<f64> = inliers
         .iter()
         .filter_map(|&i| {
             let (a, b) = &frames[i];
-            let x0 = triangulate_pair(&rotation, &direction, &a[0], &b[0])?;
-            let x2 = triangulate_pair(&rotation, &direction, &a[2], &b[2])?;
+            let x0 = triangulate_pair(&rotation, &direction, a.first()?, b.first()?)?;
+            let x2 = triangulate_pair(&rotation, &direction, a.last()?, b.last()?)?;
             let d = (x2 - x0).norm();
             (d > 0.0).then(|| length_mm / d)
         })
@@ -56,19 +73,23 @@ pub(super) fn relative_pose(frames: &[PairFrame], length_mm: f64) -> Option<Pose
         .then_some(pose)
 }
 
-/// The essential matrix of the chosen frames' correspondences (`y'ᵀ E x = 0`), its singular
-/// values forced to `(1, 1, 0)`.
-fn essential(frames: &[PairFrame], chosen: &[usize]) -> Option<Matrix3<f64>> {
-    let rows = chosen.len() * 3;
+/// The chosen frames' correspondences.
+fn correspondences(frames: &[PairFrame], chosen: &[usize]) -> Vec<(Point2<f64>, Point2<f64>)> {
+    chosen
+        .iter()
+        .flat_map(|&i| frames[i].0.iter().copied().zip(frames[i].1.iter().copied()))
+        .collect()
+}
+
+/// The essential matrix of the correspondences (`y'ᵀ E x = 0`), its singular values forced
+/// to `(1, 1, 0)`.
+fn essential(pairs: &[(Point2<f64>, Point2<f64>)]) -> Option<Matrix3<f64>> {
+    let rows = pairs.len();
     if rows < 8 {
         return None;
     }
     let mut a = DMatrix::<f64>::zeros(rows, 9);
-    for (r, (x, y)) in chosen
-        .iter()
-        .flat_map(|&i| frames[i].0.iter().zip(&frames[i].1))
-        .enumerate()
-    {
+    for (r, (x, y)) in pairs.iter().enumerate() {
         let values = [
             y.x * x.x,
             y.x * x.y,
@@ -99,6 +120,109 @@ fn essential(frames: &[PairFrame], chosen: &[usize]) -> Option<Matrix3<f64>> {
     let (u, v_t) = (svd.u?, svd.v_t?);
     let e = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0)) * v_t;
     e.iter().all(|x| x.is_finite()).then_some(e)
+}
+
+/// The largest Sampson distance of a frame's markers to `E`, b's order reversed or not.
+fn frame_error(e: &Matrix3<f64>, a: &[Point2<f64>], b: &[Point2<f64>], reversed: bool) -> f64 {
+    let n = b.len();
+    a.iter()
+        .enumerate()
+        .map(|(k, x)| sampson(e, x, &b[if reversed { n - 1 - k } else { k }]))
+        .fold(0.0, f64::max)
+}
+
+/// Which way round camera b sees each frame's wand relative to camera a, where the images do
+/// not tell the ends apart: the essential matrix of least median error (Rousseeuw 1984, least
+/// median of squares) over random samples of four frames with random pairings, each frame
+/// then paired the way that fits it best. A frame whose other pairing also fits within
+/// median + k·MAD of the frames' best errors (the wand in an epipolar plane) is left out.
+/// Returns the frames in a's order with b matched to it and the number left out; `None` when
+/// no sample defines a matrix.
+pub(super) fn resolve_pairing(frames: &[PairCandidate]) -> Option<(Vec<PairFrame>, usize)> {
+    use rand::{RngExt, SeedableRng};
+    if frames.iter().all(|f| f.fixed) {
+        return Some((
+            frames.iter().map(|f| (f.a.clone(), f.b.clone())).collect(),
+            0,
+        ));
+    }
+    if frames.len() < 4 {
+        return None;
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x7061_6972);
+    let mut best: Option<(f64, Matrix3<f64>)> = None;
+    for _ in 0..PAIRING_SAMPLES {
+        let mut pairs = Vec::new();
+        let mut chosen: Vec<usize> = Vec::new();
+        while chosen.len() < 4 {
+            let i = rng.random_range(0..frames.len());
+            if !chosen.contains(&i) {
+                chosen.push(i);
+            }
+        }
+        for &i in &chosen {
+            let f = &frames[i];
+            let reversed = !f.fixed && rng.random_range(0..2) == 1;
+            let n = f.b.len();
+            for (k, x) in f.a.iter().enumerate() {
+                pairs.push((*x, f.b[if reversed { n - 1 - k } else { k }]));
+            }
+        }
+        let Some(e) = essential(&pairs) else {
+            continue;
+        };
+        let errors: Vec<f64> = frames
+            .iter()
+            .map(|f| {
+                let straight = frame_error(&e, &f.a, &f.b, false);
+                if f.fixed {
+                    straight
+                } else {
+                    straight.min(frame_error(&e, &f.a, &f.b, true))
+                }
+            })
+            .collect();
+        let Some(m) = median(&errors) else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| m < b.0) {
+            best = Some((m, e));
+        }
+    }
+    let (_, e) = best?;
+    // (best error, other pairing's error, reversed) per frame.
+    let fits: Vec<(f64, f64, bool)> = frames
+        .iter()
+        .map(|f| {
+            let straight = frame_error(&e, &f.a, &f.b, false);
+            if f.fixed {
+                return (straight, f64::INFINITY, false);
+            }
+            let reversed = frame_error(&e, &f.a, &f.b, true);
+            if reversed < straight {
+                (reversed, straight, true)
+            } else {
+                (straight, reversed, false)
+            }
+        })
+        .collect();
+    let best_errors: Vec<f64> = fits.iter().map(|f| f.0).collect();
+    let gate = super::robust_gate(&best_errors, SAMPSON_GATE_MADS)?;
+    let mut out = Vec::new();
+    let mut left_out = 0;
+    for (f, (_, other, reversed)) in frames.iter().zip(fits) {
+        if other <= gate {
+            left_out += 1;
+            continue;
+        }
+        let b = if reversed {
+            f.b.iter().rev().copied().collect()
+        } else {
+            f.b.clone()
+        };
+        out.push((f.a.clone(), b));
+    }
+    Some((out, left_out))
 }
 
 /// Sampson's first-order distance of a correspondence to `E` (normalised units).
@@ -152,7 +276,8 @@ fn decompose(
     }
     let (in_front, r, t) = best?;
     // A majority in front, or the pair is degenerate (all points at infinity, a pure turn).
-    if in_front * 2 <= chosen.len() * 3 {
+    let points: usize = chosen.iter().map(|&i| frames[i].0.len()).sum();
+    if in_front * 2 <= points {
         return None;
     }
     let rotation = nalgebra::Rotation3::from_matrix_unchecked(r);
@@ -207,7 +332,10 @@ mod tests {
                 Vector3::new((0.4 * t).cos(), (0.9 * t).sin(), 0.3 * (0.2 * t).cos()).normalize();
             let points = [start, start + d * 160.0, start + d * 500.0];
             let project = |p: nalgebra::Point3<f64>| Point2::new(p.x / p.z, p.y / p.z);
-            frames.push((points.map(project), points.map(|p| project(b_from_a * p))));
+            frames.push((
+                points.map(project).to_vec(),
+                points.map(|p| project(b_from_a * p)).to_vec(),
+            ));
         }
         let found = relative_pose(&frames, 500.0).unwrap_or_else(|| panic!("no pose"));
         let translation_error = (found.translation.vector - b_from_a.translation.vector).norm();
