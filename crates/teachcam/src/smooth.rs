@@ -619,9 +619,15 @@ fn smooth_run(
             Vector3::new(smoothed[0][i], smoothed[1][i], smoothed[2][i]),
             rotation,
         );
-        let (markers, rms_mm, source, status) = match &sample.pose {
-            Some(p) => (p.markers, p.rms_mm, sample.source, sample.status),
-            None => (0, 0.0, PoseSource::Filled, Status::Degraded),
+        let (markers, rms_mm, source, status, cameras) = match &sample.pose {
+            Some(p) => (
+                p.markers,
+                p.rms_mm,
+                sample.source,
+                sample.status,
+                sample.cameras,
+            ),
+            None => (0, 0.0, PoseSource::Filled, Status::Degraded, None),
         };
         *sample = Sample {
             frame: sample.frame,
@@ -635,6 +641,7 @@ fn smooth_run(
             source,
             tip_std_mm: sample.tip_std_mm,
             status,
+            cameras,
         };
     }
     Ok(())

@@ -283,6 +283,17 @@ pub struct FrameTrack {
 }
 
 impl FrameTrack {
+    /// How many cameras saw the points of the identified markers (the ones the pose used).
+    #[must_use]
+    pub fn cameras_used(&self) -> usize {
+        self.labels
+            .values()
+            .filter_map(|&i| self.points.get(i))
+            .flat_map(|p| p.views.keys())
+            .collect::<std::collections::BTreeSet<_>>()
+            .len()
+    }
+
     /// The frame's status: `lost` without a pose, else the worst of its flags' statuses.
     #[must_use]
     pub fn status(&self) -> Status {
@@ -981,6 +992,7 @@ pub fn sample_of(
             Sample {
                 status,
                 tip_std_mm,
+                cameras: Some(track.cameras_used()),
                 ..Sample::measured(FrameIndex(index), time_s, *pose)
             }
         }

@@ -95,6 +95,10 @@ pub struct Sample {
     pub tip_std_mm: Option<f64>,
     /// How far the pose can be trusted; [`Status::Lost`] exactly when `pose` is `None`.
     pub status: Status,
+    /// How many cameras saw the markers the pose used (`None` where no camera measured this
+    /// frame's pose: a gap, a filled or smoothed-over frame, the simulator's truth, a file
+    /// without the column).
+    pub cameras: Option<usize>,
 }
 
 impl Sample {
@@ -108,6 +112,7 @@ impl Sample {
             source: PoseSource::Measured,
             tip_std_mm: None,
             status: Status::Lost,
+            cameras: None,
         }
     }
 
@@ -121,6 +126,7 @@ impl Sample {
             source: PoseSource::Measured,
             tip_std_mm: None,
             status: Status::Ok,
+            cameras: None,
         }
     }
 }

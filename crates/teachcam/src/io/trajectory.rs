@@ -2,7 +2,7 @@
 //! (`truth.csv`), read by `smooth`, `export` and `check`.
 //!
 //! ```text
-//! frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,filled,tip_std_mm,status
+//! frame,time_s,x_mm,y_mm,z_mm,qw,qx,qy,qz,tip_x_mm,tip_y_mm,tip_z_mm,markers,rms_mm,filled,tip_std_mm,status,cameras
 //! ```
 //! The first fourteen columns are the contract's, in order; `filled` (1 where the smoother
 //! filled a gap), `tip_std_mm` and `status` (`ok`, `degraded`, `outlier`, `lost`:
@@ -27,7 +27,7 @@ pub const CONTRACT_COLUMNS: [&str; 14] = [
 ];
 
 /// Columns this writer adds after the contract's.
-pub const EXTRA_COLUMNS: [&str; 3] = ["filled", "tip_std_mm", "status"];
+pub const EXTRA_COLUMNS: [&str; 4] = ["filled", "tip_std_mm", "status", "cameras"];
 
 /// Tolerance on `|q| - 1` for quaternions read from CSV: written numbers are rounded, and other
 /// tools print six decimals.
@@ -201,6 +201,10 @@ fn push_row(out: &mut Vec<u8>, sample: &Sample, q: Option<&Quat>) {
     };
     out.push(b',');
     out.extend_from_slice(status.name().as_bytes());
+    out.push(b',');
+    if let (Some(_), Some(cameras)) = (sample.pose, sample.cameras) {
+        out.extend_from_slice(integer.format(cameras).as_bytes());
+    }
     out.push(b'\n');
 }
 
@@ -237,6 +241,7 @@ struct Layout {
     filled: Option<usize>,
     std: Option<usize>,
     status: Option<usize>,
+    cameras: Option<usize>,
 }
 
 /// A trajectory CSV read a piece of whole lines at a time. Fields are slices of the text (one
@@ -295,8 +300,8 @@ impl<'p> TrajectoryReader<'p> {
                     format!("{} fields, header has {}", fields.len(), layout.columns),
                 ));
             }
-            let sample = parse_row(&fields, layout.filled, layout.std, layout.status)
-                .map_err(|m| FileError::invalid_line(path, line, m))?;
+            let sample =
+                parse_row(&fields, &layout).map_err(|m| FileError::invalid_line(path, line, m))?;
             if let Some(previous) = self.samples.last() {
                 if sample.frame <= previous.frame {
                     return Err(FileError::invalid_line(
@@ -416,6 +421,7 @@ fn header_layout(header: &str) -> Option<Layout> {
         filled: position("filled"),
         std: position("tip_std_mm"),
         status: position("status"),
+        cameras: position("cameras"),
     })
 }
 
@@ -444,12 +450,8 @@ fn number(fields: &[&str], column: usize) -> Result<f64, String> {
     }
 }
 
-fn parse_row(
-    fields: &[&str],
-    filled_column: Option<usize>,
-    std_column: Option<usize>,
-    status_column: Option<usize>,
-) -> Result<Sample, String> {
+fn parse_row(fields: &[&str], layout: &Layout) -> Result<Sample, String> {
+    let (filled_column, std_column, status_column) = (layout.filled, layout.std, layout.status);
     let frame: usize = fields[0]
         .parse()
         .map_err(|_| format!("frame: '{}' is not a frame number", fields[0]))?;
@@ -537,6 +539,14 @@ fn parse_row(
             }
         }
     };
+    let cameras = match layout.cameras.map(|c| fields[c]) {
+        None | Some("") => None,
+        Some(_) if pose.is_none() => return Err("cameras: a count on a row without a pose".into()),
+        Some(text) => Some(
+            text.parse::<usize>()
+                .map_err(|_| format!("cameras: '{text}' is not a count"))?,
+        ),
+    };
     Ok(Sample {
         frame: FrameIndex(frame),
         time_s,
@@ -544,6 +554,7 @@ fn parse_row(
         source,
         tip_std_mm,
         status,
+        cameras,
     })
 }
 
@@ -725,7 +736,7 @@ mod tests {
         assert_eq!(read.len(), 20_000);
         // A bad row far into the file is named by its line, as a reading in order names it.
         let mut lines: Vec<&str> = text.lines().collect();
-        lines[15_000] = "x,0.0,1,2,3,1,0,0,0,4,5,6,4,0.01,0,,ok";
+        lines[15_000] = "x,0.0,1,2,3,1,0,0,0,4,5,6,4,0.01,0,,ok,";
         std::fs::write(&path, lines.join("\n")).unwrap();
         let message = read_trajectory(&path).unwrap_err().to_string();
         assert!(message.contains(":15001: frame: 'x'"), "{message}");
