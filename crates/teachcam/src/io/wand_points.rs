@@ -10,7 +10,9 @@
 //!   (file order). DLTdv counts pixels from 1; DLTdv8 measures y down from the top edge,
 //!   DLTdv5–7, Argus and easyWand's own files up from the bottom edge ([`DltdvOrigin`]): the
 //!   points are converted to OpenCV's convention, `x − 1` and `y − 1` (top) or
-//!   `height − y` (bottom, the height from the rig file).
+//!   `height − y` (bottom, the height from the rig file). A file saved without the header
+//!   (numbers only) is read in the same layout when its column count is a multiple of
+//!   2 × the rig's cameras.
 //!
 //! The points' order within a camera-frame carries no meaning: the wand's ends are not
 //! labelled (which is which is settled by the calibration).
@@ -62,8 +64,30 @@ pub fn read_wand_points(
             PointsFormat::Detections,
         ));
     }
-    let columns: Vec<Option<(usize, usize, bool)>> =
-        header.split(',').map(|c| dltdv_column(c.trim())).collect();
+    // A DLTdv file saved without its header: numbers only, `2 · cameras` columns per point.
+    let headerless = header.split(',').all(|c| {
+        let c = c.trim();
+        c.is_empty() || c.eq_ignore_ascii_case("nan") || c.parse::<f64>().is_ok()
+    });
+    let cells = header.split(',').count();
+    let columns: Vec<Option<(usize, usize, bool)>> = if headerless {
+        let per_point = 2 * rig.len();
+        if per_point == 0 || cells % per_point != 0 {
+            return Err(FileError::invalid_line(
+                path,
+                1,
+                format!(
+                    "no header and {cells} columns: DLTdv points without a header need 2 per camera per point ({} cameras: a multiple of {per_point})",
+                    rig.len()
+                ),
+            ));
+        }
+        (0..cells)
+            .map(|i| Some((i / per_point + 1, (i / 2) % rig.len() + 1, i % 2 == 1)))
+            .collect()
+    } else {
+        header.split(',').map(|c| dltdv_column(c.trim())).collect()
+    };
     if columns.is_empty() || columns.iter().any(Option::is_none) {
         return Err(FileError::invalid_line(
             path,
@@ -87,7 +111,7 @@ pub fn read_wand_points(
         ));
     }
     let mut frames = Vec::new();
-    for (index, row) in text.lines().enumerate().skip(1) {
+    for (index, row) in text.lines().enumerate().skip(usize::from(!headerless)) {
         let line = index + 1;
         let row = row.trim_end_matches('\r');
         if row.trim().is_empty() {
@@ -222,6 +246,26 @@ mod tests {
         let (frames, _) =
             read_wand_points(&path, &rig, DltdvOrigin::Bottom).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(frames[0][&CameraId(0)][0], Pixel::new(10.0, height - 21.0));
+        // The same without a header (four cameras: 8 columns per point).
+        std::fs::write(
+            &path,
+            "11,21,51,61,NaN,NaN,NaN,NaN,31,41,NaN,NaN,NaN,NaN,NaN,NaN\n",
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let (frames, format) =
+            read_wand_points(&path, &rig, DltdvOrigin::Top).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(format, PointsFormat::Dltdv { points: 2 });
+        assert_eq!(
+            frames[0][&CameraId(0)],
+            vec![Pixel::new(10.0, 20.0), Pixel::new(30.0, 40.0)]
+        );
+        assert_eq!(frames[0][&CameraId(1)], vec![Pixel::new(50.0, 60.0)]);
+        std::fs::write(&path, "1,2,3\n").unwrap_or_else(|e| panic!("{e}"));
+        let error = read_wand_points(&path, &rig, DltdvOrigin::Top)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(error.contains("multiple of 8"), "{error}");
         std::fs::write(&path, "pt1_cam9_X,pt1_cam9_Y\n1,2\n").unwrap_or_else(|e| panic!("{e}"));
         let error = read_wand_points(&path, &rig, DltdvOrigin::Top)
             .err()

@@ -44,7 +44,8 @@ use crate::recording::detect_folder;
 --detections takes teachcam's detections.csv (camera,frame,x_px,y_px,radius_px[,...]; one row
 per blob or digitised point, OpenCV pixels, cameras named as in --cameras) or DLTdv's xypts.csv
 (pt1_cam1_X,pt1_cam1_Y,pt1_cam2_X,...; one row per frame, NaN where missing; camK = the K-th
-camera of --cameras), told apart by the header. No images are read: each camera's image size
+camera of --cameras; a file saved without its header is read in that layout when it has 2
+columns per camera per point), told apart by the header. No images are read: each camera's image size
 comes from --cameras."#)]
 pub struct WandArgs {
     /// The wand dance: a recording folder (one sub-folder of frames per camera).
