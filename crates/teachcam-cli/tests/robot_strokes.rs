@@ -361,3 +361,97 @@ fn a_take_that_never_touches_the_surface_has_no_stroke() {
     assert!(out.status.success());
     assert_eq!(json(&out.stdout)["strokes"].as_array().unwrap().len(), 1);
 }
+
+/// An axisymmetric brush spinning 900° about its own axis over 3 s: axis 6 of the IRB 120
+/// (±400°) cannot follow; with the roll free (`--free-tool-axis`) the program is written and
+/// says so in its header, and its targets keep the tip and the tool's axis.
+#[test]
+fn a_free_tool_axis_exports_a_spin_axis_6_cannot_follow() {
+    let dir = tempfile::tempdir().unwrap();
+    let take = dir.path().join("spin.csv");
+    let poses: Vec<Pose> = (0..90)
+        .map(|k| {
+            let t = k as f64 / FPS;
+            let axis = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 20f64.to_radians())
+                * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -25f64.to_radians());
+            let spin =
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), (300.0 * t).to_radians());
+            pose_from_parts(Vector3::new(-40.0 + 80.0 * t / 3.0, 0.0, 3.0), axis * spin)
+        })
+        .collect();
+    let samples = poses
+        .iter()
+        .enumerate()
+        .map(|(k, pose)| {
+            Sample::measured(
+                FrameIndex(k),
+                k as f64 / FPS,
+                ToolPose {
+                    world_from_tool: *pose,
+                    tip_in_world: Point3::from(pose.translation.vector),
+                    markers: 4,
+                    rms_mm: 0.05,
+                },
+            )
+        })
+        .collect();
+    write_trajectory(&take, &Trajectory { samples }).unwrap();
+    let module = dir.path().join("spin.mod");
+    let mut args = vec![
+        "export",
+        "rapid",
+        take.to_str().unwrap(),
+        "--robot",
+        "irb120",
+        "--wobj",
+        WOBJ,
+        "--tcp",
+        TCP,
+        "-o",
+        module.to_str().unwrap(),
+    ];
+    let out = teachcam(&args);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
+    assert!(
+        text(&out.stdout).contains("axis 6 outside its range"),
+        "{}",
+        text(&out.stdout)
+    );
+    assert!(!module.exists());
+    args.push("--free-tool-axis");
+    let out = teachcam(&args);
+    assert!(
+        out.status.success(),
+        "{}{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let program = std::fs::read_to_string(&module).unwrap();
+    assert!(
+        program.contains("! tool axis free: roll chosen per frame, range "),
+        "{program}"
+    );
+    // Every paint target: on the demonstrated tip and tool axis (to the literals' 0.001 mm
+    // and 1e-7), its roll chosen.
+    let (moves, _) = rapid_moves(&program);
+    let mut turned: f64 = 0.0;
+    for (_, pose) in moves.iter().filter(|(_, p)| p.translation.vector.z < 10.0) {
+        let nearest = poses
+            .iter()
+            .min_by(|a, b| {
+                let d = |p: &Pose| (p.translation.vector - pose.translation.vector).norm();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap();
+        assert!((nearest.translation.vector - pose.translation.vector).norm() < 0.002);
+        let axis = |p: &Pose| p.rotation * Vector3::z();
+        assert!((axis(nearest) - axis(pose)).norm() < 1e-6);
+        turned = turned.max(nearest.rotation.angle_to(&pose.rotation));
+    }
+    assert!(turned > 1f64.to_radians());
+    if let Some(Err(output)) =
+        teachcam_testdata::rapidchecker("robot_strokes", std::slice::from_ref(&module))
+    {
+        panic!("rapidchecker refuses the module: {output}");
+    }
+}

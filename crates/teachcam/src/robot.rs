@@ -11,7 +11,8 @@
 //! ```
 //! Stages, in the order data flows: [`frames`] (vision↔robot alignment, pivot calibration),
 //! [`kinematics`] (IRB 120 forward and inverse), [`check`] (reach, limits, speeds,
-//! singularities), [`strokes`] (a take cut into the runs the brush paints, trimmed to a span),
+//! singularities), [`free_axis`] (the roll about an axisymmetric tool's axis chosen per
+//! frame), [`strokes`] (a take cut into the runs the brush paints, trimmed to a span),
 //! [`gaps`] (runs of frames without a pose a straight move would cross),
 //! [`simplify`] (fewer targets within a path tolerance), [`program`] (moves
 //! with speeds from the recorded timing), then the dialects [`rapid`], [`krl`], [`urscript`]
@@ -19,6 +20,7 @@
 
 pub mod check;
 pub mod frames;
+pub mod free_axis;
 pub mod gaps;
 pub mod kinematics;
 pub mod krl;

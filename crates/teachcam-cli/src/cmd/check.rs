@@ -8,6 +8,7 @@ use nalgebra::UnitQuaternion;
 use teachcam::geometry::Pose;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::robot::check::{CheckConfig, CheckReport, check_strokes, issue_ranges};
+use teachcam::robot::free_axis::{FreeAxisConfig, choose_roll};
 use teachcam::robot::gaps::{Gap, GapConfig, find_gaps};
 use teachcam::robot::kinematics::Robot;
 use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
@@ -106,6 +107,12 @@ pub struct CellArgs {
     /// Use the poses `track` flagged `outlier` (default: treat them as gaps).
     #[arg(long)]
     pub keep_outliers: bool,
+    /// The tool is symmetric about its axis (the TCP's z: a round brush, a nozzle): choose the
+    /// rotation about it per frame, smoothly, to keep the wrist from its singularity and the
+    /// joints in range and within their speeds (also `"axisymmetric": true` in --tool's file).
+    /// The tip positions and the tool's axis are kept.
+    #[arg(long)]
+    pub free_tool_axis: bool,
 }
 
 /// Which part of the take is checked or exported, and how it splits into strokes (shared by
@@ -317,6 +324,9 @@ pub struct Resolved {
     pub take_s: (f64, f64),
     /// Check options.
     pub config: CheckConfig,
+    /// True when the rotation about the tool's axis is free (`--free-tool-axis`, or the tool
+    /// file's `"axisymmetric": true`).
+    pub free_tool_axis: bool,
 }
 
 /// Parses "x,y,z,qw,qx,qy,qz" into a pose, naming the flag on failure.
@@ -345,6 +355,11 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         Some(path) => crate::load::tool(path)?.tool_from_tcp.rotation,
         None => UnitQuaternion::identity(),
     };
+    let free_tool_axis = args.free_tool_axis
+        || match &args.tool {
+            Some(path) => teachcam::io::tool::read_axisymmetric(path).rejected()?,
+            None => false,
+        };
     let mut trajectory = read_trajectory(trajectory).rejected()?;
     if !args.keep_outliers {
         trajectory.drop_outliers();
@@ -379,6 +394,7 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
         gaps: trajectory.len() - targets.len(),
         targets,
         config,
+        free_tool_axis,
     })
 }
 
@@ -474,6 +490,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (targets, strokes) = args
         .strokes
         .program_strokes(&resolved.targets, resolved.take_s)?;
+    let (targets, tool_axis) = free_roll(&resolved, targets, &strokes);
     let report = check_strokes(
         &resolved.robot,
         &resolved.cell,
@@ -489,6 +506,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
     }
     println!("{}", strokes_line(&strokes, &args.strokes));
+    if let Some(line) = &tool_axis {
+        println!("{line}");
+    }
     print!("{}", summary(&report, resolved.gaps, &resolved.robot.name));
     let (_, gap_lines, gap_refusal) = args.gaps.judge(&targets, &strokes, args.tolerance_mm);
     print!("{gap_lines}");
@@ -506,6 +526,28 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ))
         .rejected()
     }
+}
+
+/// The targets with the roll about the tool's axis chosen per frame when it is free
+/// ([`Resolved::free_tool_axis`]), and the line saying so; the targets unchanged otherwise.
+pub fn free_roll(
+    resolved: &Resolved,
+    targets: Vec<TcpTarget>,
+    strokes: &[Stroke],
+) -> (Vec<TcpTarget>, Option<String>) {
+    if !resolved.free_tool_axis {
+        return (targets, None);
+    }
+    let free = choose_roll(
+        &resolved.robot,
+        &resolved.cell,
+        &targets,
+        &stroke_ranges(strokes),
+        &resolved.config,
+        &FreeAxisConfig::default(),
+    );
+    let line = free.describe();
+    (free.targets, Some(line))
 }
 
 /// The strokes' ranges of targets.

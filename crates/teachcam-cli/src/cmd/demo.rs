@@ -171,6 +171,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         max_acceleration_deg_s2: None,
         time_scale: teachcam::robot::check::TimeScale::Auto,
         keep_outliers: false,
+        free_tool_axis: false,
     };
     let rapid_path = out.join("stroke.mod");
     let written = super::export::write_program(&super::export::Args {

@@ -12,7 +12,9 @@ use teachcam::robot::simplify::SimplifyConfig;
 use teachcam::robot::table::poses_csv;
 use teachcam::robot::urscript::{UrScriptConfig, urscript_name_problem, urscript_program};
 
-use super::check::{CellArgs, GapArgs, StrokeArgs, resolve, stroke_ranges, strokes_line, summary};
+use super::check::{
+    CellArgs, GapArgs, StrokeArgs, free_roll, resolve, stroke_ranges, strokes_line, summary,
+};
 use crate::Rejected;
 
 /// The program dialects.
@@ -256,6 +258,10 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
     let (targets, strokes) = args
         .strokes
         .program_strokes(&resolved.targets, resolved.take_s)?;
+    let (targets, tool_axis) = free_roll(&resolved, targets, &strokes);
+    if let Some(line) = &tool_axis {
+        crate::announce::say(line);
+    }
     let (gaps, gap_lines, gap_refusal) = args.gaps.judge(&targets, &strokes, args.tolerance_mm);
     print!("{gap_lines}");
     if let Some(refusal) = gap_refusal {
@@ -304,6 +310,7 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
             .rejected()?;
     }
     program.home = home;
+    program.tool_axis = tool_axis;
     program.gaps = gaps.into_iter().filter(|g| !g.bridgeable).collect();
     if args.tool_mass.is_some() || args.tool_cog.is_some() {
         let assumed = ToolLoad::assumed(&resolved.cell);

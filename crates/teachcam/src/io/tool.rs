@@ -5,7 +5,9 @@
 //!  "markers": [[0, 0, 0], [62, 8, 0], [18, 47, 9], [-26, 71, 22]],
 //!  "tip": [0, -15, -180], "tip_rotation": [1, 0, 0, 0]}
 //! ```
-//! `tip_rotation` (optional, `qw, qx, qy, qz`) turns the TCP frame relative to the tool frame.
+//! `tip_rotation` (optional, `qw, qx, qy, qz`) turns the TCP frame relative to the tool frame;
+//! `"axisymmetric": true` (optional) says the tool is symmetric about the TCP's z, so the robot
+//! may choose the rotation about it ([`read_axisymmetric`]).
 
 use std::path::Path;
 
@@ -25,6 +27,20 @@ struct ToolFile {
     tip: [f64; 3],
     #[serde(default, skip_serializing_if = "Option::is_none")]
     tip_rotation: Option<[f64; 4]>,
+    /// True for a tool symmetric about the TCP's z (a round brush, a nozzle): the robot may
+    /// choose the rotation about it ([`crate::robot::free_axis`]). Optional, default false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    axisymmetric: bool,
+}
+
+/// True when a tool file says `"axisymmetric": true` (the robot may turn the tool about its
+/// TCP's z); false when it says false or nothing.
+///
+/// # Errors
+/// [`FileError`] as [`read_tool`].
+pub fn read_axisymmetric(path: &Path) -> Result<bool, FileError> {
+    let file: ToolFile = parse_json(path, &read_text(path)?)?;
+    Ok(file.axisymmetric)
 }
 
 /// Reads and checks a tool file.
@@ -101,6 +117,7 @@ pub fn tool_json(path: &Path, tool: &Tool) -> Result<String, FileError> {
             .collect(),
         tip: tool.tool_from_tcp.translation.vector.into(),
         tip_rotation: (rotation.angle() > 0.0).then(|| Quat::from_rotation(&rotation).to_array()),
+        axisymmetric: false,
     };
     json_text(path, &file)
 }
@@ -129,6 +146,15 @@ mod tests {
         let out = dir.path().join("out.json");
         write_tool(&out, &tool).unwrap();
         assert_eq!(read_tool(&out).unwrap(), tool);
+        // Without "axisymmetric" a tool is not; with it, the same tool that is.
+        assert!(!read_axisymmetric(&path).unwrap());
+        let round = write(
+            dir.path(),
+            r#"{"name": "brush", "marker_diameter_mm": 10.0, "axisymmetric": true,
+            "markers": [[0, 0, 0], [62, 8, 0], [18, 47, 9], [-26, 71, 22]], "tip": [0, -15, -180]}"#,
+        );
+        assert!(read_axisymmetric(&round).unwrap());
+        assert_eq!(read_tool(&round).unwrap(), tool);
     }
 
     #[test]

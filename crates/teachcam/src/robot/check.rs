@@ -780,7 +780,7 @@ fn start_cost(robot: &Robot, solution: &IkSolution) -> f64 {
     1e-3 * configuration + 1e-4 * centred
 }
 
-fn step_cost(
+pub(crate) fn step_cost(
     robot: &Robot,
     turning: &[bool; 6],
     from: &IkSolution,
@@ -921,13 +921,13 @@ fn reachable_everywhere(
 /// axis of a UR, axis 6 of the IRB 120 and of the KR 6). Along a path they move continuously,
 /// so their ±360° copies are not separate candidates: the path is chosen on their wrapped
 /// angles, then unwrapped and placed in the range as a whole ([`unwrap_turning_axes`]).
-fn turning_axes(robot: &Robot) -> [bool; 6] {
+pub(crate) fn turning_axes(robot: &Robot) -> [bool; 6] {
     std::array::from_fn(|i| robot.limits[i].max - robot.limits[i].min >= TAU - 1e-9)
 }
 
 /// The candidates of one target: every branch, with the copies of the axes that do not turn
 /// fully ([`inverse_within_limits`] on those axes), the turning axes wrapped.
-fn path_candidates(
+pub(crate) fn path_candidates(
     robot: &Robot,
     turning: &[bool; 6],
     base_from_flange: &crate::geometry::Pose,

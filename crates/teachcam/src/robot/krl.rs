@@ -181,6 +181,9 @@ pub fn krl_program(program: &Program) -> KrlProgram {
     );
     let _ = writeln!(src, "  ; Tool load {how}.");
     let _ = writeln!(src, "  ; {}.", program.timing.describe(&program.robot.name));
+    if let Some(line) = &program.tool_axis {
+        let _ = writeln!(src, "  ; {line}.");
+    }
     let _ = writeln!(src, "  BAS(#INITMOV,0)");
     let _ = writeln!(src, "  $TOOL=TOOL_TEACHCAM\n  $BASE=BASE_TEACHCAM");
     let cog = load.cog_in_flange;

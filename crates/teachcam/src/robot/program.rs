@@ -101,6 +101,9 @@ pub struct Program {
     /// Gaps in the demonstration that straight moves cross (`--bridge-gaps`): each is said in
     /// a comment before the move that crosses it ([`Program::gap_crossed_by`]).
     pub gaps: Vec<Gap>,
+    /// For a free tool axis, the line the header says it with
+    /// ([`crate::robot::free_axis::FreeRoll::describe`]); `None` for the demonstrated roll.
+    pub tool_axis: Option<String>,
 }
 
 /// TCP speed of the linear moves onto the first point and off the last one, mm/s: a brush
@@ -413,6 +416,7 @@ pub fn build_stroke_program(
         timing: report.timing,
         home: None,
         gaps: Vec::new(),
+        tool_axis: None,
     }
 }
 

@@ -66,6 +66,9 @@ pub fn rapid_module(program: &Program, config: &RapidConfig) -> String {
         program.tolerance.orientation_tolerance.to_degrees()
     );
     let _ = writeln!(out, "  ! {}.", program.timing.describe(&program.robot.name));
+    if let Some(line) = &program.tool_axis {
+        let _ = writeln!(out, "  ! {line}.");
+    }
     let tcp = &program.cell.flange_from_tcp;
     let (load, how) = program.tool_load();
     let cog = load.cog_in_flange;

@@ -100,6 +100,9 @@ pub fn urscript_program(program: &Program, config: &UrScriptConfig) -> String {
     let (load, how) = program.tool_load();
     let _ = writeln!(out, "  # Payload {how}.");
     let _ = writeln!(out, "  # {}.", program.timing.describe(&program.robot.name));
+    if let Some(line) = &program.tool_axis {
+        let _ = writeln!(out, "  # {line}.");
+    }
     let _ = writeln!(
         out,
         "  set_tcp({})",
