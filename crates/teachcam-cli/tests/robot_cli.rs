@@ -82,6 +82,48 @@ fn check_passes_and_writes_one_joint_row_per_frame() {
     let table = std::fs::read_to_string(&joints).unwrap();
     assert!(table.starts_with("frame,j1_deg,j2_deg,j3_deg,j4_deg,j5_deg,j6_deg"));
     assert_eq!(table.lines().count(), 121);
+    // Each axis's peak speed against its limit, one line an axis: the peak agrees with the
+    // finite differences of the joint table over the trajectory's times (played at the printed
+    // time scale).
+    let stdout = text(&out.stdout);
+    let scale: f64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("time scale "))
+        .and_then(|rest| rest.split(':').next())
+        .unwrap_or_else(|| panic!("no time scale in {stdout}"))
+        .parse()
+        .unwrap();
+    let times: Vec<f64> = std::fs::read_to_string(&trajectory)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    let rows: Vec<Vec<f64>> = table
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    for axis in 1..=6 {
+        let peak = rows
+            .windows(2)
+            .map(|w| {
+                let dt = scale * (times[w[1][0] as usize] - times[w[0][0] as usize]);
+                (w[1][axis] - w[0][axis]).abs() / dt
+            })
+            .fold(0.0, f64::max);
+        let line = stdout
+            .lines()
+            .find_map(|l| l.trim().strip_prefix(&format!("axis {axis}: peak ")))
+            .unwrap_or_else(|| panic!("no line for axis {axis} in {stdout}"));
+        let printed: f64 = line.split(' ').next().unwrap().parse().unwrap();
+        // Printed to the degree per second; the table's angles to its decimals.
+        assert!(
+            (printed - peak).abs() <= 0.6,
+            "axis {axis}: printed {printed}, table {peak}"
+        );
+        assert!(line.contains("% of "), "{line}");
+    }
 }
 
 #[test]

@@ -19,6 +19,7 @@
 
 pub mod cameras;
 pub mod figures;
+pub mod joints;
 pub mod spectrum;
 pub mod summary;
 

@@ -457,6 +457,9 @@ pub fn summary(report: &CheckReport, gaps: usize, robot: &str) -> String {
             speeds.join(", "),
             accelerations.join(", ")
         );
+        for line in teachcam::report::joints::joint_lines(report) {
+            let _ = writeln!(out, "  {line}");
+        }
     } else {
         let _ = writeln!(
             out,
