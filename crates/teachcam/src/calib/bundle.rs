@@ -441,11 +441,7 @@ pub(crate) fn adjust_gated<B: Body<D>, const D: usize>(
                     .collect()
             })
             .collect();
-        let all: Vec<f64> = rms.iter().flatten().copied().collect();
-        let gate_px = robust_scale(&all)
-            .map_or(f64::INFINITY, |s| s.median + gate.gate_mads * s.sigma)
-            .max(gate.min_gate_px);
-        let dropped = all.iter().filter(|r| **r > gate_px).count();
+        let (gate_px, dropped) = residual_gate(&rms, gate.gate_mads, gate.min_gate_px);
         if dropped == 0 || round >= gate.max_rounds {
             return Ok(Adjusted {
                 state: solved,
@@ -458,26 +454,13 @@ pub(crate) fn adjust_gated<B: Body<D>, const D: usize>(
                 reference,
             });
         }
-        let mut kept_frames = Vec::new();
-        let mut kept_bodies = Vec::new();
-        for ((views, pose), frame_rms) in frames.iter().zip(&solved.bodies).zip(&rms) {
-            let kept: Vec<View> = views
-                .iter()
-                .zip(frame_rms)
-                .filter_map(|(v, r)| {
-                    if *r > gate_px {
-                        dropped_per_camera[v.camera] += 1;
-                        None
-                    } else {
-                        Some(v.clone())
-                    }
-                })
-                .collect();
-            if kept.len() >= 2 {
-                kept_frames.push(kept);
-                kept_bodies.push(*pose);
-            }
-        }
+        let (kept_frames, kept_bodies) = keep_within_gate(
+            &frames,
+            &solved.bodies,
+            &rms,
+            gate_px,
+            &mut dropped_per_camera,
+        );
         frames = kept_frames;
         if frames.len() < gate.min_frames {
             return Err(AdjustError::TooFewFrames {
@@ -489,6 +472,50 @@ pub(crate) fn adjust_gated<B: Body<D>, const D: usize>(
             bodies: kept_bodies,
         };
     }
+}
+
+/// A round's residual gate, `median + gate_mads · σ̂` of every view's RMS reprojection error
+/// (`rms[frame][view]`, pixels), at least `min_gate_px`; and how many views are over it.
+pub(crate) fn residual_gate(rms: &[Vec<f64>], gate_mads: f64, min_gate_px: f64) -> (f64, usize) {
+    let all: Vec<f64> = rms.iter().flatten().copied().collect();
+    let gate_px = robust_scale(&all)
+        .map_or(f64::INFINITY, |s| s.median + gate_mads * s.sigma)
+        .max(min_gate_px);
+    let over = all.iter().filter(|r| **r > gate_px).count();
+    (gate_px, over)
+}
+
+/// The frames' views within `gate_px` (`rms[frame][view]`), with their frames' bodies; a view
+/// over it is counted for its camera in `dropped`, a frame left with fewer than two views
+/// goes.
+pub(crate) fn keep_within_gate<P: Copy>(
+    frames: &[Vec<View>],
+    bodies: &[P],
+    rms: &[Vec<f64>],
+    gate_px: f64,
+    dropped: &mut [usize],
+) -> (Vec<Vec<View>>, Vec<P>) {
+    let mut kept_frames = Vec::new();
+    let mut kept_bodies = Vec::new();
+    for ((views, body), frame_rms) in frames.iter().zip(bodies).zip(rms) {
+        let kept: Vec<View> = views
+            .iter()
+            .zip(frame_rms)
+            .filter_map(|(v, r)| {
+                if *r > gate_px {
+                    dropped[v.camera] += 1;
+                    None
+                } else {
+                    Some(v.clone())
+                }
+            })
+            .collect();
+        if kept.len() >= 2 {
+            kept_frames.push(kept);
+            kept_bodies.push(*body);
+        }
+    }
+    (kept_frames, kept_bodies)
 }
 
 /// One camera's use in an adjustment.

@@ -32,12 +32,11 @@ use std::collections::BTreeMap;
 
 use nalgebra::{DMatrix, DVector, Isometry3, SMatrix, SVector, Vector3};
 
-use super::bundle::{Body, View, fit_body};
+use super::bundle::{Body, View, fit_body, keep_within_gate, residual_gate};
 use super::intrinsics::{CameraParams, point_d_pose, project_with_jacobian, retract_pose};
 use super::lm::{LeastSquares, LmConfig, LmReport, NormalEquations, minimize};
 use crate::camera::Rig;
 use crate::geometry::{CameraId, Pixel, Point3, Pose};
-use crate::stats::robust_scale;
 use crate::triangulate::{TriangulateConfig, triangulate};
 
 /// The intrinsic parameters this module can free, in column order.
@@ -522,11 +521,7 @@ fn adjust(
                     .collect()
             })
             .collect();
-        let all: Vec<f64> = rms.iter().flatten().copied().collect();
-        let gate = robust_scale(&all)
-            .map_or(f64::INFINITY, |s| s.median + config.gate_mads * s.sigma)
-            .max(config.min_gate_px);
-        let over = all.iter().filter(|r| **r > gate).count();
+        let (gate, over) = residual_gate(&rms, config.gate_mads, config.min_gate_px);
         if over == 0 || round >= config.max_gate_rounds {
             return Ok(Gated {
                 state: solved,
@@ -536,26 +531,8 @@ fn adjust(
                 report,
             });
         }
-        let mut kept_frames = Vec::new();
-        let mut kept_bodies = Vec::new();
-        for ((views, pose), frame_rms) in frames.iter().zip(&solved.bodies).zip(&rms) {
-            let kept: Vec<View> = views
-                .iter()
-                .zip(frame_rms)
-                .filter_map(|(v, r)| {
-                    if *r > gate {
-                        dropped[v.camera] += 1;
-                        None
-                    } else {
-                        Some(v.clone())
-                    }
-                })
-                .collect();
-            if kept.len() >= 2 {
-                kept_frames.push(kept);
-                kept_bodies.push(*pose);
-            }
-        }
+        let (kept_frames, kept_bodies) =
+            keep_within_gate(&frames, &solved.bodies, &rms, gate, &mut dropped);
         if kept_frames.len() < 10 {
             return Err(IntrinsicsRefineError::TooFewFrames {
                 found: kept_frames.len(),
