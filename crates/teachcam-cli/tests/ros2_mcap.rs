@@ -33,7 +33,7 @@ fn write_stroke(path: &Path) {
             let tip = Vector3::new(
                 60.0 * (TAU * 0.4 * t).sin(),
                 40.0 * (TAU * 0.25 * t + 1.0).sin(),
-                15.0 + 8.0 * (TAU * 0.7 * t).sin(),
+                5.0 + 4.0 * (TAU * 0.7 * t).sin(),
             );
             let rotation = UnitQuaternion::from_euler_angles(0.2 * (TAU * 0.3 * t).sin(), 0.1, 0.3)
                 * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI);

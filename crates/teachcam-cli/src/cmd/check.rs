@@ -490,17 +490,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         teachcam::io::check_outputs(&[teachcam::io::Output::csv(path)], &inputs)?;
     }
     let resolved = resolve(&args.trajectory, &args.cell)?;
-    let (targets, strokes) = args
-        .strokes
-        .program_strokes(&resolved.targets, resolved.take_s)?;
-    let (targets, tool_axis) = free_roll(&resolved, targets, &strokes);
-    let report = check_strokes(
-        &resolved.robot,
-        &resolved.cell,
-        &targets,
-        &stroke_ranges(&strokes),
-        &resolved.config,
-    );
+    let CheckedPath {
+        targets,
+        strokes,
+        tool_axis,
+        report,
+    } = checked_path(&resolved, &args.strokes)?;
     if let Some(path) = &args.joints_out {
         teachcam::io::write_atomically(path, joints_csv(&report).as_bytes())?;
         crate::announce::wrote(
@@ -529,6 +524,43 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ))
         .rejected()
     }
+}
+
+/// The path the robot runs, as `check` checks it.
+#[derive(Debug)]
+pub struct CheckedPath {
+    /// The targets within `--from`/`--to`, the roll chosen where the tool's axis is free.
+    pub targets: Vec<TcpTarget>,
+    /// Their strokes.
+    pub strokes: Vec<Stroke>,
+    /// The line saying the roll was chosen, when it was.
+    pub tool_axis: Option<String>,
+    /// Each stroke checked on its own, at one time scale.
+    pub report: CheckReport,
+}
+
+/// The targets of `resolved` within `--from`/`--to`, split into strokes, the roll about the
+/// tool's axis chosen where it is free, and their check: what `check` prints and writes with
+/// `--joints-out`, `export` programs and `export mcap` records.
+///
+/// # Errors
+/// As [`StrokeArgs::program_strokes`].
+pub fn checked_path(resolved: &Resolved, strokes: &StrokeArgs) -> anyhow::Result<CheckedPath> {
+    let (targets, strokes) = strokes.program_strokes(&resolved.targets, resolved.take_s)?;
+    let (targets, tool_axis) = free_roll(resolved, targets, &strokes);
+    let report = check_strokes(
+        &resolved.robot,
+        &resolved.cell,
+        &targets,
+        &stroke_ranges(&strokes),
+        &resolved.config,
+    );
+    Ok(CheckedPath {
+        targets,
+        strokes,
+        tool_axis,
+        report,
+    })
 }
 
 /// The targets with the roll about the tool's axis chosen per frame when it is free

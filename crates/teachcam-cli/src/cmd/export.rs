@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use teachcam::io::{Output, OutputSet, check_outputs};
-use teachcam::robot::check::{CheckReport, check_strokes};
+use teachcam::robot::check::CheckReport;
 use teachcam::robot::kinematics::{Joints, Maker};
 use teachcam::robot::krl::{krl_name_problem, krl_program};
 use teachcam::robot::program::{ToolLoad, build_stroke_program, check_home, identifier};
@@ -13,7 +13,8 @@ use teachcam::robot::table::poses_csv;
 use teachcam::robot::urscript::{UrScriptConfig, urscript_name_problem, urscript_program};
 
 use super::check::{
-    CellArgs, GapArgs, StrokeArgs, free_roll, resolve, stroke_ranges, strokes_line, summary,
+    CellArgs, CheckedPath, GapArgs, StrokeArgs, checked_path, resolve, stroke_ranges, strokes_line,
+    summary,
 };
 use crate::Rejected;
 
@@ -255,10 +256,12 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         })?;
     }
     let resolved = resolve(&args.trajectory, &args.cell)?;
-    let (targets, strokes) = args
-        .strokes
-        .program_strokes(&resolved.targets, resolved.take_s)?;
-    let (targets, tool_axis) = free_roll(&resolved, targets, &strokes);
+    let CheckedPath {
+        targets,
+        strokes,
+        tool_axis,
+        report,
+    } = checked_path(&resolved, &args.strokes)?;
     if let Some(line) = &tool_axis {
         crate::announce::say(line);
     }
@@ -272,13 +275,6 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         .rejected();
     }
     let ranges = stroke_ranges(&strokes);
-    let report = check_strokes(
-        &resolved.robot,
-        &resolved.cell,
-        &targets,
-        &ranges,
-        &resolved.config,
-    );
     if !report.passes() {
         print!("{}", summary(&report, resolved.gaps, &resolved.robot.name));
         if !args.force {

@@ -3,11 +3,10 @@
 use anyhow::{Context, bail};
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::io::{Output, check_outputs};
-use teachcam::robot::check::check_path;
 use teachcam::ros2::bag::{Take, mcap_bytes};
 use teachcam::ros2::take::{Frames, camera_transforms, frame_messages, joint_trajectory};
 
-use super::check::{resolve, summary};
+use super::check::{checked_path, resolve, summary};
 use super::export::Args;
 use crate::Rejected;
 
@@ -62,12 +61,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let joints = if args.cell.robot.is_some() {
         let resolved = resolve(&args.trajectory, &args.cell)?;
-        let report = check_path(
-            &resolved.robot,
-            &resolved.cell,
-            &resolved.targets,
-            &resolved.config,
-        );
+        // The joint path `check --joints-out` writes: the same strokes and trimming.
+        let report = checked_path(&resolved, &args.strokes)?.report;
         if !report.passes() {
             print!("{}", summary(&report, resolved.gaps, &resolved.robot.name));
             if !args.force {
