@@ -42,8 +42,8 @@ use crate::trajectory::Status;
 
 /// The tool as a body of the bundle adjustment: pose `world_from_tool`, stepped by the left
 /// perturbation `exp(ω, τ) · world_from_tool`.
-struct ToolBody<'a> {
-    markers_in_tool: &'a [Point3],
+pub(super) struct ToolBody<'a> {
+    pub(super) markers_in_tool: &'a [Point3],
 }
 
 impl Body<6> for ToolBody<'_> {

@@ -30,11 +30,12 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::{DMatrix, DVector, Isometry3, SMatrix, SVector, Vector3};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector3};
 
-use super::bundle::{Body, View, fit_body, keep_within_gate, residual_gate};
+use super::bundle::{View, fit_body, keep_within_gate, residual_gate};
 use super::intrinsics::{CameraParams, point_d_pose, project_with_jacobian, retract_pose};
 use super::lm::{LeastSquares, LmConfig, LmReport, NormalEquations, minimize};
+use super::refine::ToolBody;
 use crate::camera::Rig;
 use crate::geometry::{CameraId, Pixel, Point3, Pose};
 use crate::triangulate::{TriangulateConfig, triangulate};
@@ -165,26 +166,6 @@ pub enum IntrinsicsRefineError {
         /// Frames left.
         found: usize,
     },
-}
-
-/// The tool with given markers, as a 6-DOF body.
-struct Tool<'a> {
-    markers: &'a [Point3],
-}
-
-impl Body<6> for Tool<'_> {
-    type Pose = Pose;
-
-    fn marker(&self, world_from_tool: &Pose, marker: usize) -> (Point3, SMatrix<f64, 3, 6>) {
-        let x = world_from_tool.transform_point(&self.markers[marker]);
-        (x, point_d_pose(&x))
-    }
-
-    fn retract(&self, world_from_tool: &Pose, step: &SVector<f64, 6>) -> Pose {
-        let omega = Vector3::new(step[0], step[1], step[2]);
-        let tau = Vector3::new(step[3], step[4], step[5]);
-        Isometry3::new(tau, omega) * world_from_tool
-    }
 }
 
 #[derive(Debug, Clone)]
@@ -370,8 +351,8 @@ impl Problem<'_> {
     }
 
     fn fit_bodies(&self, state: &mut State) {
-        let tool = Tool {
-            markers: &state.markers,
+        let tool = ToolBody {
+            markers_in_tool: &state.markers,
         };
         let bodies: Vec<Pose> = self
             .frames
