@@ -216,10 +216,7 @@ pub fn track(
     };
     let gates = gates_from_sample(rig, tool, &frames, min_roundness, overrides);
     if let Some(chance) = &gates.chance {
-        return Err(PipelineError::ToolNotFound(format!(
-            "tool '{}' not found: {chance}; is it the right tool file? see `teachcam doctor`",
-            tool.name
-        )));
+        return Err(not_shown(&tool.name, chance));
     }
     let config = gates.track_config();
     check_identifiable(tool, &config.identify)?;
@@ -296,6 +293,15 @@ fn synchronise(
             offsets,
             estimate,
         },
+    ))
+}
+
+/// "tool not found" for gates whose sample shows chance alignments, not the tool
+/// ([`Gates::chance`]): both conductors refuse such a recording.
+#[must_use]
+pub fn not_shown(tool: &str, chance: &str) -> PipelineError {
+    PipelineError::ToolNotFound(format!(
+        "tool '{tool}' not found: {chance}; is it the right tool file? see `teachcam doctor`"
     ))
 }
 

@@ -660,10 +660,7 @@ pub fn learn_from_recording(
     );
     learned.camera_limits = camera_limits;
     if let Some(chance) = &learned.gates.chance {
-        return Err(PipelineError::ToolNotFound(format!(
-            "tool '{}' not found: {chance}; is it the right tool file? see `teachcam doctor`",
-            tool.name
-        )));
+        return Err(super::batch::not_shown(&tool.name, chance));
     }
     Ok(learned)
 }
