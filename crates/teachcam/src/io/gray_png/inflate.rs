@@ -7,6 +7,11 @@
 //! end), so the literals a look-up yields set the speed: 1.6–2.0 times fdeflate on the
 //! simulator's frames (notes/speed.md).
 //!
+//! zlib and libpng (OpenCV, PIL) start a new block every 16 K symbols, about 80 a frame, each
+//! with codes of its own, so the tables are rebuilt for every block, in the memory of the
+//! stream's first: the codes' tables by doubling (as libdeflate does), each run from the
+//! run already built for the bits after its first literal.
+//!
 //! It takes every zlib stream (RFC 1950) of deflate blocks (RFC 1951) of any kind: stored,
 //! fixed and dynamic Huffman codes, codes up to 15 bits (those longer than 12 bits, rare by
 //! construction, are decoded a bit at a time), as PNG writers make them (fdeflate, zlib and
@@ -70,31 +75,46 @@ enum Completeness {
 }
 
 /// A canonical Huffman code (RFC 1951 §3.2.2): the table of its codes of up to 12 bits, and
-/// what decoding its longer codes a bit at a time needs.
+/// what decoding its longer codes a bit at a time needs. Built anew for each block in the
+/// same memory (a stream's blocks share one set of tables).
 struct Code {
     table: Box<SymbolTable>,
     /// Codes of each length.
     count: [u16; MAX_CODE_BITS + 1],
     /// The symbols in the order of their codes (by length, then symbol).
-    sorted: Vec<u16>,
+    sorted: [u16; LITLEN_CODES],
 }
 
+/// Symbols a code may have at most (the fixed literal/length code's 288).
+const LITLEN_CODES: usize = 288;
+
 impl Code {
-    /// The code of `lengths`; `None` when the set is over-subscribed, or incomplete beyond
-    /// what `completeness` allows.
-    fn new(lengths: &[u8], completeness: Completeness) -> Option<Self> {
+    fn empty() -> Self {
+        Self {
+            table: Box::new([0; TABLE_SIZE]),
+            count: [0; MAX_CODE_BITS + 1],
+            sorted: [0; LITLEN_CODES],
+        }
+    }
+
+    /// Makes this the code of `lengths` (at most 288); `None` when the set is
+    /// over-subscribed, or incomplete beyond what `completeness` allows.
+    ///
+    /// The table grows by doubling, as libdeflate builds its tables: at length `n` it has
+    /// 2^n entries, each code of `n` bits is written once at its (bit-reversed) index, and
+    /// going to `n + 1` bits copies the table after itself. A code's entry then repeats
+    /// under every pattern of the bits after it, for about 4096 copied entries in all
+    /// instead of one loop a symbol over its table stride.
+    fn build(&mut self, lengths: &[u8], completeness: Completeness) -> Option<()> {
         let mut count = [0u16; MAX_CODE_BITS + 1];
         for &length in lengths {
             *count.get_mut(usize::from(length))? += 1;
         }
         count[0] = 0;
-        // The first code of each length; `unused` counts the patterns of each length left.
-        let mut first = [0u32; MAX_CODE_BITS + 1];
-        let (mut code, mut unused) = (0u32, 1i32);
-        for bits in 1..=MAX_CODE_BITS {
-            code = (code + u32::from(count[bits - 1])) << 1;
-            first[bits] = code;
-            unused = (unused << 1) - i32::from(count[bits]);
+        // `unused` counts the bit patterns of each length left by the shorter codes.
+        let mut unused = 1i32;
+        for &codes in &count[1..] {
+            unused = (unused << 1) - i32::from(codes);
             if unused < 0 {
                 return None;
             }
@@ -104,48 +124,42 @@ impl Code {
         if !allowed {
             return None;
         }
-        let mut table: Box<SymbolTable> = Box::new([0; TABLE_SIZE]);
-        let mut long = false;
+        // Counting sort: each length's symbols start after the shorter lengths' ones.
+        let mut offset = [0usize; MAX_CODE_BITS + 2];
+        for length in 1..=MAX_CODE_BITS {
+            offset[length + 1] = offset[length] + usize::from(count[length]);
+        }
         for (symbol, &length) in lengths.iter().enumerate() {
-            if length == 0 {
-                continue;
-            }
-            let bits = u32::from(length);
-            let code = first[usize::from(length)];
-            first[usize::from(length)] += 1;
-            if bits > TABLE_BITS {
-                long = true;
-                continue;
-            }
-            // A code's first bit comes first in the stream: the index holds the code
-            // reversed, every pattern of the bits after it leading to the same symbol.
-            let entry = u16::try_from(symbol).ok()? << 4 | u16::from(length);
-            let reversed = code.reverse_bits() >> (32 - bits);
-            for index in (reversed as usize..TABLE_SIZE).step_by(1 << bits) {
-                table[index] = entry;
+            if length != 0 {
+                let slot = &mut offset[usize::from(length)];
+                *self.sorted.get_mut(*slot)? = u16::try_from(symbol).ok()?;
+                *slot += 1;
             }
         }
-        let mut sorted = Vec::new();
-        if long {
-            // Counting sort: each length's symbols start after the shorter lengths' ones.
-            let mut offset = [0usize; MAX_CODE_BITS + 1];
-            for length in 1..MAX_CODE_BITS {
-                offset[length + 1] = offset[length] + usize::from(count[length]);
+        let table = &mut self.table;
+        table[0] = 0;
+        let (mut size, mut code, mut next) = (1usize, 0u32, 0usize);
+        for bits in 1..=TABLE_BITS {
+            table.copy_within(0..size, size);
+            size <<= 1;
+            for &symbol in &self.sorted[next..next + usize::from(count[bits as usize])] {
+                // A code's first bit comes first in the stream: the index holds the code
+                // reversed.
+                let reversed = (code.reverse_bits() >> (32 - bits)) as usize;
+                table[reversed] = symbol << 4 | bits as u16;
+                code += 1;
             }
-            sorted = vec![0u16; usize::from(codes)];
-            for (symbol, &length) in lengths.iter().enumerate() {
-                if length != 0 {
-                    let slot = &mut offset[usize::from(length)];
-                    *sorted.get_mut(*slot)? = u16::try_from(symbol).ok()?;
-                    *slot += 1;
-                }
-            }
+            next += usize::from(count[bits as usize]);
+            code <<= 1;
         }
-        Some(Self {
-            table,
-            count,
-            sorted,
-        })
+        self.count = count;
+        Some(())
+    }
+
+    /// Whether some code is longer than the table's 12 bits.
+    #[cfg(test)]
+    fn has_long_codes(&self) -> bool {
+        self.count[TABLE_BITS as usize + 1..].iter().any(|&c| c > 0)
     }
 
     /// The next symbol of the stream and its code's length (the caller refilled: at least
@@ -178,52 +192,96 @@ impl Code {
     }
 }
 
-/// The literal runs of a literal/length code: for each index of `bits` bits (12, or 10 for
+/// The literal runs of a literal/length code: for each index of `bits` bits (12, or 9 for
 /// short blocks: [`run_bits_after`]), the literals whose codes lie whole in it, up to four.
 struct LiteralRuns {
-    /// The literals, the first in the low byte.
-    bytes: Box<[u32; TABLE_SIZE]>,
-    /// The bits the literals take `<< 3 | how many`; 0 where the index starts with a length
-    /// or end-of-block code, or a literal code longer than the index.
+    /// An index's run: the bits the literals take in the low six bits, how many less one in
+    /// the high two; 0 where the index starts with a length or end-of-block code, or a literal
+    /// code longer than the index: no run. Each look-up's index waits on the last one's
+    /// `meta`, so it is kept small (4 KiB stay in the core's first cache beside the rest) and
+    /// the buffer shifts by it unmasked (a shift takes its count's low six bits).
     meta: Box<[u8; TABLE_SIZE]>,
+    /// An index's literals, the first lowest.
+    bytes: Box<[u32; TABLE_SIZE]>,
+    /// Where the first three literals' codes end in the index, a byte each, the first
+    /// lowest; [`NO_END`] past the run (used while building).
+    ends: Box<[u32; TABLE_SIZE]>,
     /// The mask of an index's bits.
     mask: u64,
 }
 
+/// The end of a literal a run does not have: more than any room, and below a byte's high bit.
+const NO_END: u32 = 0x7f;
+
 impl LiteralRuns {
-    /// The entry of the stream's next bits.
+    fn empty() -> Self {
+        Self {
+            meta: Box::new([0; TABLE_SIZE]),
+            bytes: Box::new([0; TABLE_SIZE]),
+            ends: Box::new([0; TABLE_SIZE]),
+            mask: TABLE_MASK,
+        }
+    }
+
+    /// The index of the stream's next bits.
     #[inline(always)]
-    fn at(&self, bits: &Bits<'_>) -> (u32, u32) {
+    fn index(&self, bits: &Bits<'_>) -> usize {
         // (The mask is at most 12 bits; the second one lets the compiler see the bound.)
-        let index = (bits.buffer & self.mask) as usize & (TABLE_SIZE - 1);
-        (u32::from(self.meta[index]), self.bytes[index])
+        (bits.buffer & self.mask) as usize & (TABLE_SIZE - 1)
     }
-}
 
-/// Building a run table costs about four steps an entry, 16 K steps at 12 bits: more than
-/// decoding the 16 K symbols of one of zlib's blocks (libpng, OpenCV: a block every 16 K
-/// symbols). After a block of fewer than this many bytes the next block's table has 10 bits
-/// (a quarter of the entries, three short literals an index instead of four); fdeflate's one
-/// block a frame keeps 12.
-const LONG_BLOCK_BYTES: usize = 1 << 18;
-
-/// The run table's bits for the block after one that wrote `block_bytes`.
-fn run_bits_after(block_bytes: usize) -> u32 {
-    if block_bytes < LONG_BLOCK_BYTES {
-        10
-    } else {
-        TABLE_BITS
+    /// Makes these the runs of the code whose table is `single`, on indices of `index_bits`.
+    ///
+    /// An index's run is its first literal followed by the run of the bits after that
+    /// literal's code, cut to the literals whose codes end within the index: that later
+    /// index is smaller, so its run is already built (index 0, whose later index is itself,
+    /// is decoded whole). Without branches (which literal ends a run is as good as random,
+    /// and a mispredicted branch an index would cost more than the rest of its building):
+    /// the ends that fit are counted a byte lane each.
+    fn build(&mut self, single: &SymbolTable, index_bits: u32) {
+        const LANES: u32 = 0x01_01_01;
+        self.mask = (1 << index_bits) - 1;
+        for index in 0..1usize << index_bits {
+            let entry = single[index];
+            let (symbol, length) = (u32::from(entry >> 4), u32::from(entry & 15));
+            // Not a literal whose code fits: no run (computed on as if one was).
+            let literal = length != 0 && symbol < 256 && length <= index_bits;
+            let length = if literal { length } else { index_bits };
+            let rest = index >> length;
+            let (rest_ends, rest_bytes) = if rest == index {
+                Self::decode_whole(single, index, index_bits)
+            } else {
+                (self.ends[rest], self.bytes[rest])
+            };
+            // The later literals whose codes end within the bits this index has left: a
+            // lane's high bit stays set where `room - end` is not negative. The ends
+            // increase, so the lanes that fit are the lowest; their count is the sum of the
+            // lanes' bits, which the multiplication gathers in the third lane.
+            let room = index_bits - length;
+            let high = 0x80 * LANES;
+            let fits = (((room * LANES) | high) - (rest_ends & 0xff_ff_ff)) & high;
+            let taken = (((fits >> 7) * LANES) >> 16) & 3;
+            let kept = (1u32 << (8 * taken)) - 1;
+            let later = ((rest_ends + length * LANES) & kept) | ((NO_END * LANES) & !kept);
+            let ends = length | later << 8;
+            let bits = (ends >> (8 * taken)) & 0xff;
+            let bytes =
+                symbol | ((u64::from(rest_bytes) << 8) & ((1 << (8 * taken + 8)) - 1)) as u32;
+            let (meta, ends) = if literal {
+                (taken << 6 | bits, ends)
+            } else {
+                (0, NO_END * LANES)
+            };
+            self.meta[index] = meta as u8;
+            self.bytes[index] = bytes;
+            self.ends[index] = ends;
+        }
     }
-}
 
-fn literal_runs(single: &SymbolTable, index_bits: u32) -> LiteralRuns {
-    let mut runs = LiteralRuns {
-        bytes: Box::new([0; TABLE_SIZE]),
-        meta: Box::new([0; TABLE_SIZE]),
-        mask: (1 << index_bits) - 1,
-    };
-    for index in 0..1usize << index_bits {
-        let (mut bits, mut count, mut bytes) = (0u32, 0u32, 0u32);
+    /// The run of `index` decoded a literal at a time: its literals' ends (as
+    /// [`LiteralRuns::ends`] holds them) and the literals.
+    fn decode_whole(single: &SymbolTable, index: usize, index_bits: u32) -> (u32, u32) {
+        let (mut bits, mut count, mut bytes, mut ends) = (0u32, 0u32, 0u32, NO_END * 0x01_01_01);
         while count < RUN_MAX {
             // The bits past the index's read as zeros: a code counts only if whole.
             let entry = single[index >> bits];
@@ -233,15 +291,35 @@ fn literal_runs(single: &SymbolTable, index_bits: u32) -> LiteralRuns {
             }
             bytes |= symbol << (8 * count);
             bits += length;
+            if count < 3 {
+                ends = ends & !(0xff << (8 * count)) | bits << (8 * count);
+            }
             count += 1;
         }
-        runs.bytes[index] = bytes;
-        runs.meta[index] = (bits << 3 | count) as u8;
+        (ends, bytes)
     }
-    runs
+}
+
+/// Building a run table costs about 25 cycles an entry (measured: 12-bit tables for each of
+/// the 80 blocks of an OpenCV-written frame made its inflate 2.7 times slower than 10-bit
+/// ones), while decoding zlib's 16 K symbols a block (libpng, OpenCV) takes a few cycles a
+/// literal. After a block of fewer than this many bytes the next block's table has 9 bits
+/// (an eighth of the entries, two or three short literals an index instead of three or four;
+/// 10% faster than 10 bits and than 8 on OpenCV's frames); fdeflate's one block a frame
+/// keeps 12.
+const LONG_BLOCK_BYTES: usize = 1 << 18;
+
+/// The run table's bits for the block after one that wrote `block_bytes`.
+fn run_bits_after(block_bytes: usize) -> u32 {
+    if block_bytes < LONG_BLOCK_BYTES {
+        9
+    } else {
+        TABLE_BITS
+    }
 }
 
 /// The stream's bits, least significant first, loaded eight bytes at a time.
+#[derive(Clone, Copy)]
 struct Bits<'a> {
     input: &'a [u8],
     /// The next byte of `input` to load (past its end: zeros were loaded).
@@ -334,6 +412,7 @@ pub(super) fn inflate_zlib(
         progress: &mut progress,
     };
     let mut run_bits = TABLE_BITS;
+    let mut tables = Tables::empty();
     loop {
         bits.refill();
         let last = bits.take(1) == 1;
@@ -341,12 +420,12 @@ pub(super) fn inflate_zlib(
         match bits.take(2) {
             0 => written = copy_stored(&mut bits, out, written)?,
             1 => {
-                let tables = fixed_tables(run_bits)?;
+                tables.build_fixed(run_bits)?;
                 written = inflate_block(&mut bits, &tables, out, written, &mut report)?;
                 run_bits = run_bits_after(written - start);
             }
             2 => {
-                let tables = read_dynamic_header(&mut bits, run_bits)?;
+                tables.read_dynamic(&mut bits, run_bits)?;
                 written = inflate_block(&mut bits, &tables, out, written, &mut report)?;
                 run_bits = run_bits_after(written - start);
             }
@@ -395,86 +474,104 @@ struct Report<'p, P> {
     progress: &'p mut P,
 }
 
-/// A Huffman block's tables.
+/// A Huffman block's tables, built anew for each block in the memory of the stream's first.
 struct Tables {
     runs: LiteralRuns,
     litlen: Code,
     distance: Code,
+    /// A dynamic block header's code length code.
+    code_lengths: Code,
 }
 
 impl Tables {
-    fn new(litlen_lengths: &[u8], distance_lengths: &[u8], run_bits: u32) -> Option<Self> {
-        let litlen = Code::new(litlen_lengths, Completeness::Complete)?;
-        let distance = Code::new(distance_lengths, Completeness::SingleAllowed)?;
-        Some(Self {
-            runs: literal_runs(&litlen.table, run_bits),
-            litlen,
-            distance,
-        })
+    fn empty() -> Self {
+        Self {
+            runs: LiteralRuns::empty(),
+            litlen: Code::empty(),
+            distance: Code::empty(),
+            code_lengths: Code::empty(),
+        }
     }
-}
 
-/// The fixed codes (RFC 1951 §3.2.6): literal/length symbols 0–143 of 8 bits, 144–255 of 9,
-/// 256–279 of 7, 280–287 of 8 (286 and 287 never valid), and 32 distance codes of 5 bits (30
-/// and 31 never valid).
-fn fixed_tables(run_bits: u32) -> Option<Tables> {
-    let mut litlen = [8u8; 288];
-    litlen[144..256].fill(9);
-    litlen[256..280].fill(7);
-    Tables::new(&litlen, &[5; 32], run_bits)
-}
+    fn build(
+        &mut self,
+        litlen_lengths: &[u8],
+        distance_lengths: &[u8],
+        run_bits: u32,
+    ) -> Option<()> {
+        self.litlen.build(litlen_lengths, Completeness::Complete)?;
+        self.distance
+            .build(distance_lengths, Completeness::SingleAllowed)?;
+        self.runs.build(&self.litlen.table, run_bits);
+        Some(())
+    }
 
-/// Reads a dynamic block's header (RFC 1951 §3.2.7): its code lengths, as tables.
-fn read_dynamic_header(bits: &mut Bits<'_>, run_bits: u32) -> Option<Tables> {
-    bits.refill();
-    let litlen_count = bits.take(5) + 257;
-    let distance_count = bits.take(5) + 1;
-    let code_length_count = bits.take(4) + 4;
-    if litlen_count > LITLEN_SYMBOLS || distance_count > DISTANCE_SYMBOLS {
-        return None;
+    /// The fixed codes (RFC 1951 §3.2.6): literal/length symbols 0–143 of 8 bits, 144–255 of
+    /// 9, 256–279 of 7, 280–287 of 8 (286 and 287 never valid), and 32 distance codes of 5
+    /// bits (30 and 31 never valid).
+    fn build_fixed(&mut self, run_bits: u32) -> Option<()> {
+        let mut litlen = [8u8; LITLEN_CODES];
+        litlen[144..256].fill(9);
+        litlen[256..280].fill(7);
+        self.build(&litlen, &[5; 32], run_bits)
     }
-    let mut code_length_lengths = [0u8; 19];
-    for &symbol in &CODE_LENGTH_ORDER[..code_length_count] {
+
+    /// Reads a dynamic block's header (RFC 1951 §3.2.7) and builds its codes.
+    fn read_dynamic(&mut self, bits: &mut Bits<'_>, run_bits: u32) -> Option<()> {
         bits.refill();
-        code_length_lengths[symbol] = bits.take(3) as u8;
+        let litlen_count = bits.take(5) + 257;
+        let distance_count = bits.take(5) + 1;
+        let code_length_count = bits.take(4) + 4;
+        if litlen_count > LITLEN_SYMBOLS || distance_count > DISTANCE_SYMBOLS {
+            return None;
+        }
+        let mut code_length_lengths = [0u8; 19];
+        for &symbol in &CODE_LENGTH_ORDER[..code_length_count] {
+            bits.refill();
+            code_length_lengths[symbol] = bits.take(3) as u8;
+        }
+        let code_lengths = &mut self.code_lengths;
+        code_lengths.build(&code_length_lengths, Completeness::Complete)?;
+        let mut lengths = [0u8; LITLEN_SYMBOLS + DISTANCE_SYMBOLS];
+        let declared = litlen_count + distance_count;
+        let mut i = 0;
+        while i < declared {
+            bits.refill();
+            // Code length codes are at most 7 bits: always in the table.
+            let (symbol, length) = code_lengths.peek(bits)?;
+            bits.consume(length);
+            let (value, repeat) = match symbol {
+                length @ 0..=15 => (length as u8, 1),
+                16 => (*lengths.get(i.checked_sub(1)?)?, 3 + bits.take(2)),
+                17 => (0, 3 + bits.take(3)),
+                _ => (0, 11 + bits.take(7)),
+            };
+            lengths.get_mut(i..i + repeat)?.fill(value);
+            i += repeat;
+        }
+        if i != declared {
+            return None; // a repeat ran past the declared lengths
+        }
+        let (litlen_lengths, distance_lengths) = lengths[..declared].split_at(litlen_count);
+        if litlen_lengths[usize::from(END_OF_BLOCK)] == 0 {
+            return None;
+        }
+        self.build(litlen_lengths, distance_lengths, run_bits)
     }
-    let code_lengths = Code::new(&code_length_lengths, Completeness::Complete)?;
-    let mut lengths = [0u8; LITLEN_SYMBOLS + DISTANCE_SYMBOLS];
-    let declared = litlen_count + distance_count;
-    let mut i = 0;
-    while i < declared {
-        bits.refill();
-        // Code length codes are at most 7 bits: always in the table.
-        let (symbol, length) = code_lengths.peek(bits)?;
-        bits.consume(length);
-        let (value, repeat) = match symbol {
-            length @ 0..=15 => (length as u8, 1),
-            16 => (*lengths.get(i.checked_sub(1)?)?, 3 + bits.take(2)),
-            17 => (0, 3 + bits.take(3)),
-            _ => (0, 11 + bits.take(7)),
-        };
-        lengths.get_mut(i..i + repeat)?.fill(value);
-        i += repeat;
-    }
-    if i != declared {
-        return None; // a repeat ran past the declared lengths
-    }
-    let (litlen_lengths, distance_lengths) = lengths[..declared].split_at(litlen_count);
-    if litlen_lengths[usize::from(END_OF_BLOCK)] == 0 {
-        return None;
-    }
-    Tables::new(litlen_lengths, distance_lengths, run_bits)
 }
 
 /// Inflates one Huffman block's data into `out` from `written` on; how far `out` is written
 /// after it.
 fn inflate_block<P: FnMut(&[u8])>(
-    bits: &mut Bits<'_>,
+    stream: &mut Bits<'_>,
     tables: &Tables,
     out: &mut [u8],
     mut written: usize,
     report: &mut Report<'_, P>,
 ) -> Option<usize> {
+    // A copy of the stream's state, which the compiler keeps in registers.
+    let mut local = *stream;
+    let bits = &mut local;
     loop {
         if written >= report.next {
             (report.progress)(&out[..written]);
@@ -483,18 +580,21 @@ fn inflate_block<P: FnMut(&[u8])>(
         bits.refill();
         // Literal runs: four look-ups a refill (4 × 12 ≤ 56 bits), each writing four bytes
         // (its run, then bytes the next run overwrites), while 16 + 1 bytes are left.
-        if written + 4 * (RUN_MAX as usize) < out.len() {
-            let mut lookups = 0;
+        if let Some(window) = out.get_mut(written..written + 4 * RUN_MAX as usize + 1) {
+            let (mut lookups, mut filled) = (0, 0);
             while lookups < 4 {
-                let (meta, run) = tables.runs.at(bits);
+                let index = tables.runs.index(bits);
+                let meta = u32::from(tables.runs.meta[index]);
                 if meta == 0 {
                     break;
                 }
-                out[written..written + 4].copy_from_slice(&run.to_le_bytes());
-                written += (meta & 7) as usize;
-                bits.consume(meta >> 3);
+                let literals = tables.runs.bytes[index].to_le_bytes();
+                window[filled..filled + 4].copy_from_slice(&literals);
+                filled += (meta >> 6) as usize + 1;
+                bits.consume(meta & 63);
                 lookups += 1;
             }
+            written += filled;
             if lookups == 4 {
                 continue;
             }
@@ -510,6 +610,7 @@ fn inflate_block<P: FnMut(&[u8])>(
             continue;
         }
         if symbol == usize::from(END_OF_BLOCK) {
+            *stream = *bits;
             return Some(written);
         }
         // A length (at most 15 + 5 bits) and a distance (15 + 13): 48 of the 56 bits.
@@ -712,7 +813,9 @@ mod tests {
         };
         bits.refill();
         bits.consume(1);
-        (bits.take(2) == 2).then(|| read_dynamic_header(&mut bits, TABLE_BITS))?
+        let mut tables = Tables::empty();
+        (bits.take(2) == 2 && tables.read_dynamic(&mut bits, TABLE_BITS).is_some())
+            .then_some(tables)
     }
 
     #[test]
@@ -723,7 +826,7 @@ mod tests {
             for level in [1, 6, 9] {
                 let stream = zlib_stream(&data, level);
                 let tables = first_block_tables(&stream).expect("a dynamic block");
-                long_codes += usize::from(!tables.litlen.sorted.is_empty());
+                long_codes += usize::from(tables.litlen.has_long_codes());
                 assert_eq!(
                     ours(&stream, data.len()),
                     Some(data.clone()),
@@ -736,6 +839,57 @@ mod tests {
             long_codes >= 2,
             "{long_codes} streams with codes over 12 bits"
         );
+    }
+
+    /// An index's run by its definition: literals decoded one at a time while their codes
+    /// lie whole in the index (the bits past it read as zeros), up to four: (how many, their
+    /// bits, the literals).
+    fn run_by_definition(single: &SymbolTable, index: usize, index_bits: u32) -> (u32, u32, u32) {
+        let (mut count, mut bits, mut bytes) = (0, 0, 0);
+        while count < RUN_MAX {
+            let entry = single[index >> bits];
+            let (symbol, length) = (u32::from(entry >> 4), u32::from(entry & 15));
+            if length == 0 || symbol >= 256 || bits + length > index_bits {
+                break;
+            }
+            bytes |= symbol << (8 * count);
+            bits += length;
+            count += 1;
+        }
+        (count, bits, bytes)
+    }
+
+    #[test]
+    fn each_run_is_what_decoding_its_index_literal_by_literal_gives() {
+        // The runs are built from the runs already built, without branches.
+        let mut checked = 0;
+        for (data, level) in [
+            (filtered_noise(640, 48, 2.5, 21), 1),
+            (filtered_noise(640, 48, 0.7, 23), 1),
+            (skewed(60_000, 22), 6),
+        ] {
+            let stream = zlib_stream(&data, level);
+            let mut tables = first_block_tables(&stream).expect("a dynamic block");
+            for index_bits in [8, 9, 10, 12] {
+                tables.runs.build(&tables.litlen.table, index_bits);
+                for index in 0..1usize << index_bits {
+                    let (count, bits, bytes) =
+                        run_by_definition(&tables.litlen.table, index, index_bits);
+                    let meta = u32::from(tables.runs.meta[index]);
+                    let at = format!("level {level}, {index_bits} bits, index {index}");
+                    if count == 0 {
+                        assert_eq!(meta, 0, "{at}");
+                        continue;
+                    }
+                    assert_eq!((meta >> 6) + 1, count, "{at}");
+                    assert_eq!(meta & 63, bits, "{at}");
+                    let mask = u32::MAX >> (32 - 8 * count);
+                    assert_eq!(tables.runs.bytes[index] & mask, bytes, "{at}");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 5_000, "{checked} runs");
     }
 
     #[test]
