@@ -19,6 +19,7 @@ mod load;
 mod plot;
 mod progress;
 mod recording;
+mod ros2_live;
 mod signals;
 
 /// The whole path on simulated data, from an empty folder; every command's own examples

@@ -129,20 +129,15 @@ fn ros2_python(module: &str) -> Option<PathBuf> {
         })
 }
 
-/// Runs `scripts/<script>` with the ROS 2 readers' Python: `Some(Ok(stdout))` when it exits
-/// 0, `Some(Err(what it printed))` otherwise, `None` when the readers are not installed
-/// (`test` then says it skipped the check).
+/// A command running `scripts/<script>` with the ROS 2 readers' Python (arguments and
+/// environment left to the caller), or `None` when the readers are not installed (`test` then
+/// says it skipped the check).
 ///
 /// # Panics
 /// When the readers are not installed and `CI` is `true` (`.ci/run` installs them).
 #[must_use]
 #[expect(clippy::print_stderr, reason = "a skipped check says why")]
-pub fn ros2_script(
-    test: &str,
-    module: &str,
-    script: &str,
-    args: &[std::ffi::OsString],
-) -> Option<Result<String, String>> {
+pub fn ros2_command(test: &str, module: &str, script: &str) -> Option<std::process::Command> {
     let Some(python) = ros2_python(module) else {
         assert!(
             std::env::var("CI").as_deref() != Ok("true"),
@@ -156,10 +151,26 @@ pub fn ros2_script(
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../scripts")
         .join(script);
-    let output = std::process::Command::new(python)
-        .arg(path)
-        .args(args)
-        .output();
+    let mut command = std::process::Command::new(python);
+    command.arg(path);
+    Some(command)
+}
+
+/// Runs `scripts/<script>` with the ROS 2 readers' Python: `Some(Ok(stdout))` when it exits
+/// 0, `Some(Err(what it printed))` otherwise, `None` when the readers are not installed
+/// (`test` then says it skipped the check).
+///
+/// # Panics
+/// When the readers are not installed and `CI` is `true` (`.ci/run` installs them).
+#[must_use]
+pub fn ros2_script(
+    test: &str,
+    module: &str,
+    script: &str,
+    args: &[std::ffi::OsString],
+) -> Option<Result<String, String>> {
+    let mut command = ros2_command(test, module, script)?;
+    let output = command.args(args).output();
     Some(match output {
         Ok(out) if out.status.success() => Ok(String::from_utf8_lossy(&out.stdout).into_owned()),
         Ok(out) => Err(format!(

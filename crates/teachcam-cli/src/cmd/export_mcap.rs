@@ -112,7 +112,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 
 /// What is wrong with a frame name for tf2 (`None`: nothing): not empty, no leading `/`,
 /// letters, digits, `_` and `/` only.
-fn frame_id_problem(name: &str) -> Option<&'static str> {
+pub(crate) fn frame_id_problem(name: &str) -> Option<&'static str> {
     if name.is_empty() {
         Some("a frame name cannot be empty")
     } else if name.starts_with('/') {

@@ -12,8 +12,13 @@ use teachcam::source::{SourceSpec, open_source};
 use teachcam::track::gates::GateOverrides;
 use teachcam::trajectory::{Status, Trajectory};
 
+use anyhow::bail;
+use teachcam::ros2::take::Frames;
+
+use super::export_mcap::frame_id_problem;
 use crate::Rejected;
 use crate::capture::{CameraFlags, ModelFlags, parse_source, stop_requested};
+use crate::ros2_live::{Ros2Live, RosEnv};
 
 /// Track the tool live: capture → detect → track at camera rate, printing poses as they come.
 ///
@@ -57,6 +62,16 @@ pub struct Args {
     /// Write the trajectory CSV here at the end instead of printing rows.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Publish on ROS 2 (DDS, domain `ROS_DOMAIN_ID`): /teachcam/tool
+    /// (geometry_msgs/PoseWithCovarianceStamped, tip in metres), /tf (world → teachcam_tool,
+    /// world → camera_NAME), /tf_static (the cameras), /teachcam/status
+    /// (diagnostic_msgs/DiagnosticArray). Honours ROS_LOCALHOST_ONLY=1 and
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (loopback only, unicast).
+    #[arg(long)]
+    pub ros2: bool,
+    /// With --ros2: the world frame's name, every message's frame_id [default: world].
+    #[arg(long, requires = "ros2")]
+    pub frame_id: Option<String>,
     #[command(flatten)]
     pub camera: CameraFlags,
 }
@@ -101,6 +116,20 @@ fn row(frame: &TrackedFrame) -> String {
 
 /// Run the command.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    // ROS 2's settings are checked before the source opens (a mistake costs no rendering).
+    let ros2_settings = if args.ros2 {
+        let world = args.frame_id.clone().unwrap_or_else(|| "world".into());
+        if let Some(problem) = frame_id_problem(&world) {
+            bail!("--frame-id {world:?}: {problem}");
+        }
+        let frames = Frames {
+            world,
+            ..Frames::default()
+        };
+        Some((RosEnv::from_vars(|name| std::env::var(name).ok())?, frames))
+    } else {
+        None
+    };
     let config = args.camera.source_config(&args.source, args.seconds, None);
     let (rig, tool) = args.model.load(&args.source, &config.sim)?;
     let mut source = open_source(&args.source, &config).rejected()?;
@@ -123,6 +152,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     )
     .map_err(|e| crate::recording::pipeline_error(e, tool_path))?;
     let lag_frames = options.lag_frames;
+    let mut ros2 = match ros2_settings {
+        Some((env, frames)) => Some(Ros2Live::start(env, &rig, frames)?),
+        None => None,
+    };
     let started = Instant::now();
     let mut latencies = Vec::new();
     let mut samples = Vec::new();
@@ -150,6 +183,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             latencies.extend(frame.latency_s());
             if frame.sample.pose.is_some() {
                 posed += 1;
+            }
+            if let Some(ros2) = &mut ros2 {
+                ros2.publish(&frame).rejected()?;
             }
             if args.out.is_none() {
                 writeln!(out, "{}", row(&frame))?;
@@ -186,6 +222,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             "source": args.source.to_string(),
             "statuses": statuses(&samples),
             "lag_frames": lag_frames,
+            "ros2": ros2.as_ref().map(Ros2Live::published),
         });
         writeln!(out, "{summary}")?;
     } else {

@@ -82,11 +82,25 @@ pub fn frame_messages(
     reason: Option<&str>,
     frames: &Frames,
 ) -> Result<FrameMessages, TakeError> {
-    let frame = sample.frame.0;
     let stamp = Time::from_seconds(sample.time_s).ok_or(TakeError::Time {
-        frame,
+        frame: sample.frame.0,
         time_s: sample.time_s,
     })?;
+    frame_messages_at(sample, stamp, reason, frames)
+}
+
+/// The messages of `sample` stamped `stamp` instead of its `time_s` (live: the exposure on
+/// the wall clock).
+///
+/// # Errors
+/// [`TakeError::NotFinite`] for a pose that cannot be written.
+pub fn frame_messages_at(
+    sample: &Sample,
+    stamp: Time,
+    reason: Option<&str>,
+    frames: &Frames,
+) -> Result<FrameMessages, TakeError> {
+    let frame = sample.frame.0;
     let header = Header {
         stamp,
         frame_id: frames.world.clone(),
