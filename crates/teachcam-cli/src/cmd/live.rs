@@ -198,6 +198,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     for camera in &cameras_out {
         crate::announce::warn(&camera.to_string());
     }
+    if let Some(published) = ros2.as_ref().map(Ros2Live::published)
+        && published.failed > 0
+    {
+        crate::announce::warn(&format!(
+            "ROS 2: DDS refused {} of the messages (the others were published)",
+            published.failed
+        ));
+    }
     if let Some(path) = &args.out {
         write_trajectory(
             path,
