@@ -46,7 +46,8 @@ use crate::ros2_live::{Ros2Live, RosEnv};
 #[derive(Debug, clap::Args)]
 #[command(after_help = r#"Examples:
   teachcam live --source sim:paper --fps 60 --seconds 2 --json
-  teachcam live --source v4l2:/dev/video0,/dev/video2 --rig rig.json --tool rec/tool.json --seconds 10"#)]
+  teachcam live --source v4l2:/dev/video0,/dev/video2 --rig rig.json --tool rec/tool.json --seconds 10
+  ROS_LOCALHOST_ONLY=1 teachcam live --source sim:paper --ros2    (then: ros2 topic echo /teachcam/tool)"#)]
 pub struct Args {
     /// Where frames come from: sim:SCENARIO, v4l2:DEVICE[,DEVICE...], folder:REC or a folder.
     #[arg(long, default_value = "sim:paper", value_parser = parse_source)]
