@@ -277,3 +277,113 @@ fn the_real_ir_video_reads_whole_with_its_five_markers() {
     assert_eq!(one_to_one, pairs);
     assert!(followed * 100 >= pairs * 95, "{followed} of {pairs}");
 }
+
+/// What `ffmpeg -pix_fmt gray` makes of `video`: every frame's bytes, one after another.
+fn ffmpeg_gray(video: &Path) -> Vec<u8> {
+    let output = Command::new("ffmpeg")
+        .args(["-nostdin", "-v", "error", "-i"])
+        .arg(video)
+        .args(["-map", "0:v:0", "-fps_mode", "passthrough"])
+        .args(["-f", "rawvideo", "-pix_fmt", "gray", "-"])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "ffmpeg -pix_fmt gray on {video:?}");
+    output.stdout
+}
+
+#[test]
+fn luma_planes_decode_to_what_ffmpegs_gray_conversion_gives() {
+    // 8-bit planar YUV videos are decoded to their luma plane and, in limited range, expanded
+    // here; FFmpeg's own conversion to gray is the truth, byte for byte, for each pixel format
+    // and range, and for formats that keep FFmpeg's conversion (RGB, 10-bit).
+    if !ffmpeg_available() {
+        return;
+    }
+    let root = tempfile::tempdir().unwrap();
+    let cases: [(&str, &[&str], teachcam::source::video::GrayFrom); 6] = {
+        use teachcam::source::video::GrayFrom::{Converted, Luma};
+        [
+            (
+                "yuv420p.avi",
+                &["-c:v", "mpeg4", "-q:v", "3", "-pix_fmt", "yuv420p"],
+                Luma { limited: true },
+            ),
+            (
+                "yuv444p.mkv",
+                &["-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuv444p"],
+                Luma { limited: true },
+            ),
+            (
+                "yuvj420p.mp4",
+                &["-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuvj420p"],
+                Luma { limited: false },
+            ),
+            (
+                "pc.mkv",
+                &[
+                    "-c:v",
+                    "libx264",
+                    "-crf",
+                    "18",
+                    "-pix_fmt",
+                    "yuv420p",
+                    "-color_range",
+                    "pc",
+                ],
+                Luma { limited: false },
+            ),
+            ("rgb.mov", &["-c:v", "png", "-pix_fmt", "rgb24"], Converted),
+            (
+                "ten.mkv",
+                &["-c:v", "ffv1", "-pix_fmt", "yuv420p10le"],
+                Converted,
+            ),
+        ]
+    };
+    for (name, codec, expected_way) in cases {
+        let video = root.path().join(name);
+        // A moving test pattern with noise: every luma level from black to white occurs.
+        let status = Command::new("ffmpeg")
+            .args(["-nostdin", "-v", "error", "-f", "lavfi", "-i"])
+            .arg("testsrc2=size=160x120:rate=25:duration=0.4,noise=alls=20:allf=t")
+            .args(codec)
+            .arg(&video)
+            .status()
+            .unwrap();
+        assert!(status.success(), "encoding {name}");
+        let info = teachcam::source::video::probe(&video, "cam0").unwrap();
+        assert_eq!(info.gray, expected_way, "{name}: {info:?}");
+        let mut reader = teachcam::source::video::VideoReader::start(&video, info).unwrap();
+        let mut ours = Vec::new();
+        while let Some(frame) = reader.next_frame() {
+            match frame.unwrap() {
+                teachcam::io::recording::GrayFrame::Eight(image) => ours.extend(image.into_raw()),
+                teachcam::io::recording::GrayFrame::Sixteen(image) => {
+                    ours.extend(image.into_raw().iter().flat_map(|s| s.to_le_bytes()));
+                }
+            }
+        }
+        let truth = if name == "ten.mkv" {
+            let output = Command::new("ffmpeg")
+                .args(["-nostdin", "-v", "error", "-i"])
+                .arg(&video)
+                .args(["-f", "rawvideo", "-pix_fmt", "gray16le", "-"])
+                .output()
+                .unwrap();
+            output.stdout
+        } else {
+            ffmpeg_gray(&video)
+        };
+        assert_eq!(
+            ours.len(),
+            10 * 160 * 120 * if name == "ten.mkv" { 2 } else { 1 },
+            "{name}"
+        );
+        let differing = ours.iter().zip(&truth).filter(|(a, b)| a != b).count();
+        assert_eq!(ours.len(), truth.len(), "{name}");
+        assert_eq!(
+            differing, 0,
+            "{name}: {differing} samples differ from ffmpeg -pix_fmt gray"
+        );
+    }
+}
