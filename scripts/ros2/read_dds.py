@@ -148,6 +148,12 @@ def main():
         Policy.Durability.Volatile,
         Policy.History.KeepLast(10),
     )
+    # tf2's static listener: transient local, so the cameras written once at start arrive.
+    static_qos = Qos(
+        Policy.Reliability.Reliable(duration(milliseconds=100)),
+        Policy.Durability.TransientLocal,
+        Policy.History.KeepLast(1),
+    )
     participant = DomainParticipant(args.domain)
     readers = {
         "tool": DataReader(
@@ -160,6 +166,11 @@ def main():
             participant,
             Topic(participant, "rt/teachcam/status", DiagnosticArray, qos=qos),
             qos=qos,
+        ),
+        "tf_static": DataReader(
+            participant,
+            Topic(participant, "rt/tf_static", TFMessage, qos=static_qos),
+            qos=static_qos,
         ),
     }
     received = {name: [] for name in readers}
@@ -213,6 +224,9 @@ def main():
     latency = sorted(t - stamp_s(m.header.stamp) for t, m in arrival)
     tf_children = sorted({t.child_frame_id for m in received["tf"] for t in m.transforms})
     tf_parents = sorted({t.header.frame_id for m in received["tf"] for t in m.transforms})
+    static_children = sorted(
+        {t.child_frame_id for m in received["tf_static"] for t in m.transforms}
+    )
     levels = sorted({s.level for m in received["status"] for s in m.status})
     print(
         json.dumps(
@@ -231,6 +245,7 @@ def main():
                 "latency_ms_max": 1e3 * latency[-1],
                 "tf_children": tf_children,
                 "tf_parents": tf_parents,
+                "tf_static_children": static_children,
                 "status_levels": levels,
                 "covariance_first": [tools[0].pose.covariance[7 * i] for i in range(6)],
                 "positions_m": xs,

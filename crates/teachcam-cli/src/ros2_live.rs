@@ -136,6 +136,8 @@ pub struct Ros2Live {
     tool: Writer,
     tf: Writer,
     status: Writer,
+    // Kept alive: a transient-local writer hands its sample to readers that join later.
+    _tf_static: Writer,
     cameras: TfMessage,
     frames: Frames,
     /// Wall clock and monotonic clock read together: turns an exposure `Instant` into a ROS
@@ -221,6 +223,7 @@ impl Ros2Live {
             tool,
             tf,
             status,
+            _tf_static: tf_static,
             cameras,
             frames,
             epoch,

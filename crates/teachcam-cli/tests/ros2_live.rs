@@ -121,6 +121,13 @@ fn cyclone_dds_receives_the_live_poses_on_loopback() {
         assert!(children.contains(child), "{got}");
     }
     assert!(got["status"].as_u64().unwrap() >= received, "{got}");
+    // /tf_static is transient local: written once at the start, before the reader matched,
+    // and still delivered.
+    assert_eq!(
+        got["tf_static_children"],
+        serde_json::json!(["camera_cam0", "camera_cam1", "camera_cam2"]),
+        "{got}"
+    );
 }
 
 #[test]
