@@ -77,24 +77,21 @@ impl GrayFrom {
     }
 }
 
-/// Limited-range luma to full-range gray: `round((Y − 16) · 255 / 219)`, clamped (no value
-/// lies at a half: 255 / 219 = 85 / 73 and 2 · 85 · k is never 73 modulo 146).
-const LIMITED_TO_FULL: [u8; 256] = {
-    let mut table = [0u8; 256];
-    let mut y = 0;
-    while y < 256 {
-        let v = if y < 16 {
-            0
-        } else if y > 235 {
-            219
-        } else {
-            y - 16
-        };
-        table[y] = ((v * 255 + 109) / 219) as u8;
-        y += 1;
+/// Limited-range luma to full-range gray in place: `round((Y − 16) · 255 / 219)`, clamped (no
+/// value lies at a half: 255 / 219 = 85 / 73 and 2 · 85 · k is never 73 modulo 146).
+/// Arithmetic rather than a table, so that the compiler makes it 16 samples a step.
+fn expand_limited_range(samples: &mut [u8]) {
+    for sample in samples {
+        let v = u16::from((*sample).clamp(16, 235)) - 16;
+        *sample = ((v * 255 + 109) / 219) as u8;
     }
-    table
-};
+}
+
+/// The pipe's capacity asked for: room for a few frames, so that FFmpeg and the reading thread
+/// wake each other once a frame or less rather than every 64 KiB (Linux's default; an
+/// unprivileged process may ask up to `/proc/sys/fs/pipe-max-size`, 1 MiB by default).
+#[cfg(target_os = "linux")]
+const PIPE_BYTES: usize = 1 << 20;
 
 #[derive(Debug, Deserialize)]
 struct ProbeOutput {
@@ -265,6 +262,9 @@ impl VideoReader {
             .stdout
             .take()
             .ok_or_else(|| video_error("ffmpeg gave no output pipe"))?;
+        // Best effort: the default capacity works, only slower.
+        #[cfg(target_os = "linux")]
+        let _ = rustix::pipe::fcntl_setpipe_size(&stdout, PIPE_BYTES);
         // Drained on its own thread so that a chatty decoder never blocks on a full pipe.
         let stderr = child.stderr.take().map(|mut pipe| {
             std::thread::spawn(move || {
@@ -409,9 +409,7 @@ fn read_frames(
                     ImageBuffer::from_raw(width, height, samples).map(GrayFrame::Sixteen)
                 } else {
                     if expand {
-                        for sample in &mut bytes {
-                            *sample = LIMITED_TO_FULL[usize::from(*sample)];
-                        }
+                        expand_limited_range(&mut bytes);
                     }
                     GrayImage::from_raw(width, height, bytes).map(GrayFrame::Eight)
                 };
