@@ -7,7 +7,7 @@
 //! it, detected at that roundness ([`crate::track::gates::measure_gates`]). A stream over a
 //! recording learns the same gates by reading only those frames first ([`learn_from_recording`]).
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::path::Path;
 
 use super::rules::{CameraOut, FrameInput, cameras_out, frame_inputs};
@@ -19,7 +19,7 @@ use crate::geometry::CameraId;
 use crate::io::detections::Detections;
 use crate::metrology::frame::Typical;
 use crate::source::folder::{FolderSource, RecordingClock};
-use crate::source::{FrameSet, FrameSource, SourceCamera, SourceError, SourceStats};
+use crate::source::{FrameData, FrameSet, FrameSource, SourceCamera, SourceError, SourceStats};
 use crate::tool::Tool;
 use crate::track::Tracker;
 use crate::track::gates::{
@@ -615,8 +615,6 @@ pub fn learn_from_recording(
     let mut source = FolderSource::open(root, options.fps)?;
     let floor = overrides.min_roundness.unwrap_or(ROUNDNESS_FLOOR);
     let (mut setups, missing_cameras) = options.rig_setups(rig, tool, source.cameras(), floor)?;
-    let (camera_limits, _) = learn_camera_limits(&mut source, &mut setups, false)?;
-    let mut source = FolderSource::open(root, options.fps)?;
     let len_hint = source.len_hint();
     let roundness_sample: BTreeSet<usize> = sampled_sets(len_hint, ROUNDNESS_SAMPLE_FRAMES)
         .into_iter()
@@ -625,8 +623,31 @@ pub fn learn_from_recording(
         .into_iter()
         .collect();
     let keep: BTreeSet<usize> = roundness_sample.union(&gate_sample).copied().collect();
-    let mut sampled = Sampled {
+    // The second sample's sets are kept as the first pass reads past them, so that a video
+    // is not decoded once more for them (a pipe cannot skip frames).
+    let mut kept = Keeping {
         inner: &mut source,
+        keep: &keep,
+        kept: VecDeque::new(),
+        bytes: 0,
+        over_budget: false,
+    };
+    let (camera_limits, _) = learn_camera_limits(&mut kept, &mut setups, false)?;
+    let (kept, over_budget) = (kept.kept, kept.over_budget);
+    let mut fresh;
+    let mut replay;
+    let second: &mut dyn FrameSource = if over_budget {
+        fresh = FolderSource::open(root, options.fps)?;
+        &mut fresh
+    } else {
+        replay = Replay {
+            kept,
+            rest: &mut source,
+        };
+        &mut replay
+    };
+    let mut sampled = Sampled {
+        inner: second,
         keep,
     };
     let choices: DetectedRecording<RoundnessChoices> =
@@ -663,6 +684,107 @@ pub fn learn_from_recording(
         return Err(super::batch::not_shown(&tool.name, chance));
     }
     Ok(learned)
+}
+
+/// Decoded pixels kept for the second pass at most (beyond: the recording is read again).
+const KEPT_BYTES: usize = 512 << 20;
+
+/// A source that hands on every set and keeps a copy of those of `keep` (decoded pixels are
+/// shared, not copied) until [`KEPT_BYTES`] of decoded pixels would be passed.
+#[derive(Debug)]
+struct Keeping<'s, 'k> {
+    inner: &'s mut dyn FrameSource,
+    keep: &'k BTreeSet<usize>,
+    kept: VecDeque<FrameSet>,
+    bytes: usize,
+    over_budget: bool,
+}
+
+impl FrameSource for Keeping<'_, '_> {
+    fn cameras(&self) -> &[SourceCamera] {
+        self.inner.cameras()
+    }
+
+    fn fps(&self) -> f64 {
+        self.inner.fps()
+    }
+
+    fn len_hint(&self) -> Option<usize> {
+        self.inner.len_hint()
+    }
+
+    fn is_live(&self) -> bool {
+        false
+    }
+
+    fn next_set(&mut self) -> Option<Result<FrameSet, SourceError>> {
+        let set = self.inner.next_set()?;
+        if let Ok(set) = &set
+            && !self.over_budget
+            && self.keep.contains(&set.index)
+        {
+            self.bytes += set
+                .cameras
+                .iter()
+                .flatten()
+                .map(|c| match &c.data {
+                    FrameData::Decoded(frame) => {
+                        let (width, height) = frame.dimensions();
+                        width as usize * height as usize * 2
+                    }
+                    FrameData::Png(_) => 0,
+                })
+                .sum::<usize>();
+            if self.bytes > KEPT_BYTES {
+                self.over_budget = true;
+                self.kept.clear();
+            } else {
+                self.kept.push_back(set.clone());
+            }
+        }
+        Some(set)
+    }
+
+    fn stats(&self) -> SourceStats {
+        self.inner.stats()
+    }
+}
+
+/// The sets a [`Keeping`] kept, then the rest of the source it read them from: the same sets
+/// as the source read afresh, filtered to the kept indices.
+#[derive(Debug)]
+struct Replay<'s> {
+    kept: VecDeque<FrameSet>,
+    rest: &'s mut dyn FrameSource,
+}
+
+impl FrameSource for Replay<'_> {
+    fn cameras(&self) -> &[SourceCamera] {
+        self.rest.cameras()
+    }
+
+    fn fps(&self) -> f64 {
+        self.rest.fps()
+    }
+
+    fn len_hint(&self) -> Option<usize> {
+        self.rest.len_hint()
+    }
+
+    fn is_live(&self) -> bool {
+        false
+    }
+
+    fn next_set(&mut self) -> Option<Result<FrameSet, SourceError>> {
+        match self.kept.pop_front() {
+            Some(set) => Some(Ok(set)),
+            None => self.rest.next_set(),
+        }
+    }
+
+    fn stats(&self) -> SourceStats {
+        self.rest.stats()
+    }
 }
 
 /// A source that hands on only the sets of `keep` (others are read past, not decoded).

@@ -19,6 +19,7 @@
 use std::io::{ErrorKind, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdout, Command, Stdio};
+use std::sync::Mutex;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
 
@@ -136,6 +137,44 @@ fn ratio(text: &str) -> Option<f64> {
 /// [`SourceError::FfmpegMissing`] without ffprobe; [`SourceError::Video`] when the file has no
 /// readable video stream; [`SourceError::TooLarge`] above the frame limit (`camera` names it).
 pub fn probe(path: &Path, camera: &str) -> Result<VideoInfo, SourceError> {
+    // A command opens a recording several times (learning its limits, then tracking): one
+    // ffprobe a file, its answer kept while the file is unchanged (ffprobe's start-up alone
+    // is 0.1–0.2 s).
+    static PROBED: Mutex<Vec<(PathBuf, FileStamp, VideoInfo)>> = Mutex::new(Vec::new());
+    let stamp = FileStamp::of(path);
+    if let Some(stamp) = &stamp
+        && let Ok(probed) = PROBED.lock()
+        && let Some((_, _, info)) = probed.iter().find(|(p, s, _)| p == path && s == stamp)
+    {
+        check_frame_limit(camera, info.size)?;
+        return Ok(info.clone());
+    }
+    let info = probe_afresh(path, camera)?;
+    if let (Some(stamp), Ok(mut probed)) = (stamp, PROBED.lock()) {
+        probed.retain(|(p, _, _)| p != path);
+        probed.push((path.to_path_buf(), stamp, info.clone()));
+    }
+    Ok(info)
+}
+
+/// A file's length and modification time: a file probed before and unchanged since.
+#[derive(Debug, Clone, PartialEq)]
+struct FileStamp {
+    len: u64,
+    modified: std::time::SystemTime,
+}
+
+impl FileStamp {
+    fn of(path: &Path) -> Option<Self> {
+        let metadata = std::fs::metadata(path).ok()?;
+        Some(Self {
+            len: metadata.len(),
+            modified: metadata.modified().ok()?,
+        })
+    }
+}
+
+fn probe_afresh(path: &Path, camera: &str) -> Result<VideoInfo, SourceError> {
     let output = Command::new("ffprobe")
         .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
         .arg("stream=width,height,avg_frame_rate,nb_frames,bits_per_raw_sample,pix_fmt,color_range")
