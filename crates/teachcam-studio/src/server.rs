@@ -6,7 +6,8 @@
 //!                                                                      ├─► Shared (status, take, controls, recorder)
 //!                                                                      └─► watch<LiveMessage> ─► WebSocket /api/live
 //! axum on tokio: /api/status, /api/scene, /api/controls, /api/record, /api/stop,
-//!                /api/review, /api/robot, /api/export/{dialect}, the page and its scripts
+//!                /api/review, /api/robot, /api/export/{dialect}, /api/calibrate[/start|/save],
+//!                the page and its scripts
 //! ```
 //! The core library is synchronous: the pipeline thread runs the library's conductor
 //! ([`teachcam::pipeline::TrackStream`]) exactly as `teachcam live` does and never re-implements
@@ -16,6 +17,7 @@
 //! path that reaches the filesystem.
 
 pub mod api;
+pub mod calibrate;
 pub mod pipeline;
 pub mod preview;
 pub mod recorder;
@@ -54,6 +56,8 @@ pub struct StudioConfig {
     /// Whether every API request must carry the token (given `--listen`): off loopback anyone
     /// on the network could otherwise read the cameras.
     pub token_everywhere: bool,
+    /// What the Calibrate tab calibrates with (`None`: the tab says how to give it).
+    pub wand: Option<calibrate::WandSetup>,
 }
 
 /// What the frames are tracked with.

@@ -297,6 +297,20 @@ async fn studio_checks(
         "the suggested work object passes: {}",
         browser.eval("return document.getElementById('robot-summary').textContent").await
     );
+    // Calibrate, on a studio given no wand: the tab says how to give one.
+    browser
+        .eval("document.querySelector('nav button[data-tab=calibrate]').click(); return true")
+        .await;
+    ensure!(
+        browser
+            .wait_for(
+                "const p = document.getElementById('calib-unavailable'); return !p.hidden && p.textContent.includes('--wand')",
+                Duration::from_secs(10)
+            )
+            .await,
+        "the Calibrate tab says how to give a wand: {}",
+        browser.eval("return document.getElementById('tab-calibrate').textContent").await
+    );
     browser
         .eval("document.querySelector('nav button[data-tab=live]').click(); return true")
         .await;
@@ -493,6 +507,200 @@ async fn a_recording_without_a_rig_opens_view_only() {
     assert!(errors.is_empty(), "console errors: {errors:?}");
 }
 
+/// The Calibrate tab on the simulator's wand dance (100 frames of four cameras) and its
+/// L-frame: the coverage fills as the frames are detected, Calibrate gives each camera's RMS
+/// and the wand length's error within twice what this dance measures (0.0083-0.0092 px,
+/// 0.0054 mm: the rendered blobs' centring noise), the rig is drawn in 3-D and saved where the
+/// page asked (a second save is refused until Overwrite), and `teachcam track`'s library run
+/// poses the L-frame through the saved rig at the world's origin. No console error.
+#[tokio::test(flavor = "multi_thread")]
+async fn the_calibrate_tab_calibrates_a_wand_dance_and_saves_the_rig() {
+    let test = "the_calibrate_tab_calibrates_a_wand_dance_and_saves_the_rig";
+    let Some(browser) = Browser::open(test).await else {
+        return;
+    };
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let sim = dir.path().join("sim");
+    teachcam::sim::wand::write_wand_scenario(&sim, 1, Some(100), &|| {})
+        .expect("the wand scenario renders");
+    let out = dir.path().join("out");
+    let mut config = support::studio::sim_config(&out, 12);
+    let lframe = teachcam::io::tool::read_tool(&sim.join("lframe.json")).expect("the L-frame");
+    config.wand = Some(teachcam_studio::server::calibrate::WandSetup {
+        cameras: teachcam::io::rig::read_cameras(&sim.join("cameras.json")).expect("cameras"),
+        wand: teachcam::io::wand::read_wand(&sim.join("wand.json")).expect("the wand"),
+        recording: Some(sim.join("wand")),
+        ground_tool: Some(lframe.clone()),
+        ground: Some(sim.join("ground")),
+        near_mm: 300.0,
+        far_mm: 3000.0,
+    });
+    let served = support::studio::serve(config).await;
+    let outcome = async {
+        browser
+            .client
+            .goto(&format!("{}#calibrate", served.url()))
+            .await
+            .map_err(|e| format!("the browser opens the studio: {e}"))?;
+        ensure!(
+            browser
+                .wait_for(
+                    "return !document.getElementById('calib-panel').hidden && document.getElementById('calib-recording').value === 'wand' && document.getElementById('calib-ground').value === 'ground'",
+                    Duration::from_secs(20)
+                )
+                .await,
+            "the tab offers the dance and the ground frame: {}",
+            browser.eval("return window.teachcamStudio.calibration").await
+        );
+        browser
+            .eval("document.getElementById('calibrate').click(); return true")
+            .await;
+        ensure!(
+            browser
+                .wait_for(
+                    "return document.getElementById('calib-state').dataset.stage === 'done' && window.teachcamStudio.calibrationRenders > 0",
+                    Duration::from_secs(120)
+                )
+                .await,
+            "the calibration ends: {}",
+            browser.eval("return document.getElementById('calib-state').textContent").await
+        );
+        screenshot(&browser, "calibrate").await;
+        browser
+            .eval("document.getElementById('calib-scene').scrollIntoView(); return true")
+            .await;
+        screenshot(&browser, "calibrate-rig").await;
+        // The coverage filled as the frames came, and covers each camera's image.
+        let coverage = browser
+            .eval("return {history: window.teachcamStudio.coverageHistory,
+                           cells: Array.from(document.querySelectorAll('#calib-coverage canvas')).map(c => Number(c.dataset.filled)),
+                           views: window.teachcamStudio.calibration.coverage.map(c => c.views)}")
+            .await;
+        let history: Vec<f64> = coverage["history"]
+            .as_array()
+            .map(|h| h.iter().filter_map(serde_json::Value::as_f64).collect())
+            .unwrap_or_default();
+        ensure!(
+            !history.is_empty() && history.windows(2).all(|w| w[0] <= w[1]),
+            "the coverage fills as the frames are detected: {coverage}"
+        );
+        let cells: Vec<u64> = coverage["cells"]
+            .as_array()
+            .map(|c| c.iter().filter_map(serde_json::Value::as_u64).collect())
+            .unwrap_or_default();
+        // The 100 frames cross part of each image: measured 11-19 of 48 cells (about half).
+        ensure!(
+            cells.len() == 4 && cells.iter().all(|c| *c >= 6),
+            "each camera's coverage: {coverage}"
+        );
+        let result = browser
+            .eval("return window.teachcamStudio.calibration.result")
+            .await;
+        for camera in result["cameras"].as_array().into_iter().flatten() {
+            let rms = camera["rms_px"].as_f64().unwrap_or(f64::NAN);
+            ensure!(
+                rms.is_finite() && rms < 0.02,
+                "{}: RMS {rms} px",
+                camera["name"]
+            );
+        }
+        let length_rms = result["length_error_rms_mm"].as_f64().unwrap_or(f64::NAN);
+        ensure!(
+            length_rms.is_finite() && length_rms < 0.012,
+            "wand length error RMS {length_rms} mm"
+        );
+        let shown = browser
+            .eval("return document.querySelectorAll('#calib-cameras tr[data-camera]').length")
+            .await;
+        ensure!(shown == 4, "a row per camera: {shown}");
+        // Saving asks first, then writes; a second save of the name asks to overwrite.
+        let saved = out.join("rig.json");
+        browser
+            .eval("document.getElementById('calib-save').click(); return true")
+            .await;
+        ensure!(
+            !saved.exists()
+                && browser
+                    .wait_for(
+                        "return !document.getElementById('calib-confirm').hidden",
+                        Duration::from_secs(5)
+                    )
+                    .await,
+            "Save asks for confirmation before writing"
+        );
+        browser
+            .eval("document.getElementById('calib-confirm').click(); return true")
+            .await;
+        ensure!(
+            browser
+                .wait_for(
+                    "return (document.getElementById('calib-saved').dataset.path || '').endsWith('rig.json')",
+                    Duration::from_secs(10)
+                )
+                .await
+                && saved.is_file(),
+            "the rig is saved: {}",
+            browser.eval("return document.getElementById('calib-saved').textContent").await
+        );
+        std::fs::write(&saved, "kept").map_err(|e| e.to_string())?;
+        browser
+            .eval("document.getElementById('calib-save').click(); document.getElementById('calib-confirm').click(); return true")
+            .await;
+        ensure!(
+            browser
+                .wait_for(
+                    "return !document.getElementById('calib-overwrite').hidden",
+                    Duration::from_secs(10)
+                )
+                .await
+                && std::fs::read_to_string(&saved).map_err(|e| e.to_string())? == "kept",
+            "an existing file is kept until Overwrite: {}",
+            browser.eval("return document.getElementById('calib-saved').textContent").await
+        );
+        browser
+            .eval("document.getElementById('calib-overwrite').click(); return true")
+            .await;
+        ensure!(
+            browser
+                .wait_for(
+                    "return document.getElementById('calib-overwrite').hidden",
+                    Duration::from_secs(10)
+                )
+                .await,
+            "Overwrite saves"
+        );
+        // `teachcam track`'s run poses the L-frame through the saved rig, at the world's origin.
+        let rig = teachcam::io::rig::read_rig(&saved).map_err(|e| e.to_string())?;
+        let run = teachcam::pipeline::batch::track(
+            teachcam::pipeline::batch::TrackInput::Recording(&sim.join("ground")),
+            &rig,
+            &lframe,
+            &teachcam::pipeline::batch::TrackOptions::default(),
+            &|| {},
+        )
+        .map_err(|e| format!("track through the saved rig: {e}"))?;
+        let origins: Vec<f64> = run
+            .trajectory
+            .samples
+            .iter()
+            .filter_map(|s| s.pose.map(|p| p.world_from_tool.translation.vector.norm()))
+            .collect();
+        ensure!(
+            origins.len() == run.trajectory.len() && origins.iter().all(|d| *d < 0.05),
+            "the L-frame at the world's origin in every frame: {origins:?}"
+        );
+        Ok::<(), String>(())
+    }
+    .await;
+    let errors = browser.errors().await;
+    browser.close().await;
+    served.studio.finish();
+    if let Err(message) = outcome {
+        panic!("{test}: {message}");
+    }
+    assert!(errors.is_empty(), "console errors: {errors:?}");
+}
+
 /// A small simulated run (the paper's rig, the first 36 frames of its stroke rendered; the
 /// truth with 0.02 mm of noise as the tracked trajectory) and its report, written to `dir`.
 #[expect(
@@ -527,6 +735,20 @@ fn simulated_report(dir: &std::path::Path) -> teachcam::report::Report {
         path: Some(path.display().to_string()),
         note: String::new(),
     };
+    // The path on the IRB 120 as the demo places it, checked as `teachcam check` does.
+    let targets =
+        teachcam::robot::tcp_targets(&raw, &teachcam::geometry::Pose::identity().rotation);
+    let cell = teachcam::robot::Cell {
+        base_from_wobj: teachcam::geometry::parse_pose("350,0,100,1,0,0,0").expect("a pose"),
+        flange_from_tcp: teachcam::geometry::parse_pose("0,0,200,0,1,0,0").expect("a pose"),
+    };
+    let config = teachcam::robot::check::CheckConfig::default();
+    let robot = teachcam::robot::kinematics::Robot::by_name("irb120").expect("the IRB 120");
+    let whole = 0..targets.len();
+    let strokes = std::slice::from_ref(&whole);
+    let check = teachcam::robot::check::check_strokes(&robot, &cell, &targets, strokes, &config);
+    let joints =
+        teachcam::report::joints::CheckedJoints::new(check, strokes, config.speed_fraction);
     build_report(&ReportInputs {
         header: Header::now(vec![
             input("recording", &recording),
@@ -544,6 +766,7 @@ fn simulated_report(dir: &std::path::Path) -> teachcam::report::Report {
         tool: Ok(&scene.tool),
         recording: Ok(recording.as_path()),
         base_from_wobj: Err(Absent("no work object </script> given (--wobj)".into())),
+        joints: Ok(&joints),
         cutoff_hz: 10.0,
         study_seed: 1,
         extra_summary: Vec::new(),
@@ -574,6 +797,52 @@ async fn the_report_draws_every_figure_and_zooms() {
         teachcam_testdata::browser::check_figures_drawn(model.as_array().expect("a list"), &drawn)
     {
         panic!("{wrong}");
+    }
+    // The joint figure: an angle and a speed panel for each of the 6 axes, each plotted over
+    // a range that holds its limit lines.
+    let joints = drawn
+        .iter()
+        .find(|s| s["id"] == "joints")
+        .expect("the joint figure");
+    assert_eq!(joints["canvases"], 12, "{joints}");
+    let slot = model
+        .as_array()
+        .and_then(|m| m.iter().find(|s| s["id"] == "joints"))
+        .expect("the joint slot");
+    let limits: Vec<Vec<f64>> = slot["panels"]
+        .as_array()
+        .expect("panels")
+        .iter()
+        .map(|p| {
+            p["marks"]
+                .as_array()
+                .expect("marks")
+                .iter()
+                .filter_map(|m| m["y"].as_f64())
+                .collect()
+        })
+        .collect();
+    assert!(
+        limits.iter().all(|l| l.len() >= 2),
+        "limit lines: {limits:?}"
+    );
+    let ranges = browser
+        .eval(
+            "const section = document.getElementById('figures');
+             return Array.from(document.querySelectorAll('section[data-figure=joints] .uplot'))
+               .map(u => section.teachcamPlots.find(p => p.root === u))
+               .map(p => [p.scales.y.min, p.scales.y.max]);",
+        )
+        .await;
+    for (range, lines) in ranges.as_array().expect("the ranges").iter().zip(&limits) {
+        let (low, high) = (
+            range[0].as_f64().unwrap_or(f64::NAN),
+            range[1].as_f64().unwrap_or(f64::NAN),
+        );
+        assert!(
+            lines.iter().all(|y| (low..=high).contains(y)),
+            "the plotted range {low}..{high} leaves out a limit line of {lines:?}"
+        );
     }
     let robot = drawn
         .iter()

@@ -83,6 +83,9 @@
       ctx.lineWidth = ratio;
       ctx.setLineDash([5 * ratio, 4 * ratio]);
       ctx.font = 12 * ratio + 'px sans-serif';
+      // A horizontal line's label sits at the left, or at the right when a label at the left
+      // is already that close (a speed limit and the share of it allowed).
+      var leftLabels = [];
       marks.forEach(function (m) {
         ctx.beginPath();
         if (m.kind === 'vertical_line') {
@@ -98,7 +101,15 @@
           ctx.moveTo(box.left, y);
           ctx.lineTo(box.left + box.width, y);
           ctx.stroke();
-          ctx.fillText(m.label, box.left + 4 * ratio, y - 4 * ratio);
+          var crowded = leftLabels.some(function (other) { return Math.abs(other - y) < 14 * ratio; });
+          if (crowded) {
+            ctx.textAlign = 'right';
+            ctx.fillText(m.label, box.left + box.width - 4 * ratio, y - 4 * ratio);
+            ctx.textAlign = 'left';
+          } else {
+            leftLabels.push(y);
+            ctx.fillText(m.label, box.left + 4 * ratio, y - 4 * ratio);
+          }
         }
       });
       ctx.restore();

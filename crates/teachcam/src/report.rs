@@ -54,6 +54,8 @@ pub enum FigureId {
     Paths,
     /// The tip path on the robot, seen from above, with its reach.
     Robot,
+    /// Each axis's angle and speed along the checked path against its limits.
+    Joints,
     /// The tip error against the simulator's truth.
     TipError,
     /// The tip uncertainty over the working volume.
@@ -64,13 +66,14 @@ pub enum FigureId {
 
 impl FigureId {
     /// Every figure of a report, in the page's order.
-    pub const ALL: [FigureId; 9] = [
+    pub const ALL: [FigureId; 10] = [
         FigureId::Components,
         FigureId::Spectrum,
         FigureId::Quality,
         FigureId::SmoothingStudy,
         FigureId::Paths,
         FigureId::Robot,
+        FigureId::Joints,
         FigureId::TipError,
         FigureId::Uncertainty,
         FigureId::Cameras,
@@ -89,6 +92,7 @@ impl FigureId {
             Self::SmoothingStudy => "smoothing_study",
             Self::Paths => "paths",
             Self::Robot => "robot",
+            Self::Joints => "joints",
             Self::TipError => "tip_error",
             Self::Uncertainty => "uncertainty",
             Self::Cameras => "cameras",
@@ -414,6 +418,8 @@ pub struct ReportInputs<'a> {
     pub recording: Input<'a, Path>,
     /// The work object in the robot's base frame (the path on the robot).
     pub base_from_wobj: Input<'a, Pose>,
+    /// The path checked on a robot (the joint figure).
+    pub joints: Input<'a, joints::CheckedJoints>,
     /// The low-pass cut-off to mark on the spectrum (and to smooth at when no smoothed
     /// trajectory is given), Hz.
     pub cutoff_hz: f64,
@@ -522,6 +528,14 @@ pub fn build_report(inputs: &ReportInputs) -> Report {
                 reason_for(&inputs.base_from_wobj, reason),
             )
         }),
+        match &inputs.joints {
+            Ok(j) => joints::joint_figure(j),
+            Err(Absent(what)) => FigureSlot::missing(
+                FigureId::Joints,
+                joints::JOINTS_TITLE,
+                format!("{what}: the joint figure needs the robot the path is checked on"),
+            ),
+        },
         match &inputs.truth {
             Ok(t) => figures::tip_error(t, inputs.raw, smoothed),
             Err(Absent(what)) => FigureSlot::missing(
@@ -788,6 +802,7 @@ mod tests {
             tool: Err(Absent("no tool.json".into())),
             recording: Err(Absent("no recording folder".into())),
             base_from_wobj: Err(Absent("no work object (--wobj)".into())),
+            joints: Err(Absent("no robot (--robot)".into())),
             cutoff_hz: 10.0,
             study_seed: 1,
             extra_summary: Vec::new(),
@@ -841,7 +856,7 @@ mod tests {
         let frames = report.summary.iter().find(|s| s.key == "frames").unwrap();
         assert_eq!(frames.text, "120 frames");
         let json = serde_json::to_value(&report).unwrap();
-        assert_eq!(json["figures"][6]["kind"], "missing");
+        assert_eq!(json["figures"][7]["kind"], "missing");
         assert_eq!(json["figures"][0]["kind"], "plots");
     }
 

@@ -303,6 +303,23 @@ impl GapArgs {
     }
 }
 
+impl Default for CellArgs {
+    /// `check`'s defaults: the IRB 120, work object and TCP at identity, automatic time scale.
+    fn default() -> Self {
+        Self {
+            robot: None,
+            wobj: "0,0,0,1,0,0,0".into(),
+            tcp: "0,0,0,1,0,0,0".into(),
+            tool: None,
+            speed_fraction: teachcam::robot::check::DEFAULT_SPEED_FRACTION,
+            time_scale: teachcam::robot::check::TimeScale::Auto,
+            max_acceleration_deg_s2: None,
+            keep_outliers: false,
+            free_tool_axis: false,
+        }
+    }
+}
+
 impl CellArgs {
     /// The robot asked for, `irb120` when none was.
     pub fn robot_name(&self) -> &str {
@@ -336,6 +353,15 @@ pub fn parse_pose(text: &str, flag: &str) -> anyhow::Result<Pose> {
 
 /// Reads the trajectory and the tool, and parses the frames.
 pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
+    let trajectory = read_trajectory(trajectory).rejected()?;
+    resolve_trajectory(trajectory, args)
+}
+
+/// [`resolve`] of a trajectory already read (the report's smoothed one).
+pub fn resolve_trajectory(
+    mut trajectory: teachcam::trajectory::Trajectory,
+    args: &CellArgs,
+) -> anyhow::Result<Resolved> {
     let robot = resolve_robot(args.robot_name())?;
     let cell = Cell {
         base_from_wobj: parse_pose(&args.wobj, "--wobj")?,
@@ -360,7 +386,6 @@ pub fn resolve(trajectory: &Path, args: &CellArgs) -> anyhow::Result<Resolved> {
             Some(path) => teachcam::io::tool::read_axisymmetric(path).rejected()?,
             None => false,
         };
-    let mut trajectory = read_trajectory(trajectory).rejected()?;
     if !args.keep_outliers {
         trajectory.drop_outliers();
     }

@@ -228,7 +228,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .map(|p| p.display().to_string())
         .collect(),
     };
-    let run_json = serde_json::json!({ "wobj": DEMO_WOBJ, "tcp": DEMO_TCP, "summary": summary });
+    let run_json = serde_json::json!({ "robot": "irb120", "wobj": DEMO_WOBJ, "tcp": DEMO_TCP, "summary": summary });
     teachcam::io::write_atomically(
         &out.join("run.json"),
         serde_json::to_string_pretty(&run_json)?.as_bytes(),

@@ -12,7 +12,9 @@ use teachcam::io::tool::read_tool;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::report::{Absent, Header, InputFile, ReportInputs, build_report, summary_from_json};
 
+use super::check::{CellArgs, StrokeArgs, checked_path, resolve_trajectory, stroke_ranges};
 use crate::Rejected;
+use teachcam::report::joints::CheckedJoints;
 
 /// Write an HTML report of a run: one self-contained page of interactive figures.
 ///
@@ -28,16 +30,21 @@ use crate::Rejected;
 ///   --tool       tool.json, RECORDING/tool.json
 ///   --truth      RECORDING/truth.csv, truth.csv
 ///   --wobj       run.json's "wobj"
+///   --robot      run.json's "robot"
+///   --tcp        run.json's "tcp"
 ///
 /// Figures: trajectory components raw / smoothed / truth with the residual (paper Figs. 3
 /// and 8), the windowed amplitude spectrum with the cut-off (Fig. 7), per-frame tip_std and
 /// status, the smoothing comparison (Figs. 4-6), the tip path to scale, the path on the robot
-/// with its reach, the tip error, the uncertainty map and what the cameras see. A figure whose
+/// with its reach, each robot axis's angle and speed against its limits (with --robot: the
+/// smoothed path checked as `teachcam check SMOOTHED --robot R --wobj W --tcp T --tool TOOL`
+/// checks it, strokes and time scale included), the tip error, the uncertainty map and what the cameras see. A figure whose
 /// input is missing is a line saying so, on the page and on stderr.
 #[derive(Debug, clap::Args)]
 #[command(after_help = r#"Examples:
   teachcam report teachcam-demo
-  teachcam report . --wobj "350,0,100,0,1,0,0" -o report.html"#)]
+  teachcam report . --wobj "350,0,100,0,1,0,0" -o report.html
+  teachcam report . --robot irb120 --wobj "350,0,100,0,1,0,0" --tcp "0,0,200,0,1,0,0""#)]
 pub struct Args {
     /// The run's folder (as written by `teachcam demo`, or the README's pipeline folder).
     pub run_dir: PathBuf,
@@ -67,6 +74,17 @@ pub struct Args {
     /// RUN_DIR/run.json).
     #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::pose)]
     pub wobj: Option<String>,
+    /// Robot the smoothed path is checked on, for the joint figure: a name or a robot file as
+    /// `check --robot` takes (default: from RUN_DIR/run.json; without one, no joint figure).
+    #[arg(long)]
+    pub robot: Option<String>,
+    /// Tool centre point in the maker's flange frame, "x,y,z,qw,qx,qy,qz" (mm), as `check
+    /// --tcp` (default: from RUN_DIR/run.json, else the flange itself).
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::pose)]
+    pub tcp: Option<String>,
+    /// The rotation about the tool's axis is free, as `check --free-tool-axis`.
+    #[arg(long)]
+    pub free_tool_axis: bool,
     /// The low-pass cut-off marked on the spectrum (and used when there is no smoothed
     /// trajectory), Hz.
     #[arg(long, default_value_t = 10.0, value_parser = crate::flags::positive)]
@@ -87,6 +105,9 @@ impl Args {
             tool: None,
             truth: None,
             wobj: None,
+            robot: None,
+            tcp: None,
+            free_tool_axis: false,
             cutoff: 10.0,
         }
     }
@@ -263,6 +284,38 @@ pub fn write_report(args: &Args) -> Result<(PathBuf, usize)> {
             note: String::new(),
         });
     }
+    let from_run = |key: &str| {
+        run_json
+            .as_ref()
+            .and_then(|j| j[key].as_str().map(str::to_string))
+    };
+    let robot = args.robot.clone().or_else(|| from_run("robot"));
+    let joints = match &robot {
+        Some(robot) => {
+            inputs.push(InputFile {
+                role: "robot".into(),
+                path: Some(robot.clone()),
+                note: String::new(),
+            });
+            let cell = CellArgs {
+                robot: Some(robot.clone()),
+                wobj: wobj_text.clone().unwrap_or_else(|| IDENTITY.into()),
+                tcp: args
+                    .tcp
+                    .clone()
+                    .or_else(|| from_run("tcp"))
+                    .unwrap_or_else(|| IDENTITY.into()),
+                tool: tool_found.as_ref().ok().cloned(),
+                free_tool_axis: args.free_tool_axis,
+                ..CellArgs::default()
+            };
+            checked_joints(&raw, smoothed.as_ref().ok(), args.cutoff, &cell)?
+        }
+        None => Err(Absent(format!(
+            "no robot (--robot, or \"robot\" in {})",
+            run_json_path.display()
+        ))),
+    };
     let recording_path = recording_found.as_deref().map_err(Clone::clone);
     let report = build_report(&ReportInputs {
         header: Header::now(inputs),
@@ -273,6 +326,7 @@ pub fn write_report(args: &Args) -> Result<(PathBuf, usize)> {
         tool: tool.as_ref().map_err(Clone::clone),
         recording: recording_path,
         base_from_wobj: base_from_wobj.as_ref().map_err(Clone::clone),
+        joints: joints.as_ref().map_err(Clone::clone),
         cutoff_hz: args.cutoff,
         study_seed: 1,
         extra_summary: run_json
@@ -290,4 +344,43 @@ pub fn write_report(args: &Args) -> Result<(PathBuf, usize)> {
     let page = teachcam_studio::report_page::render(&report)?;
     teachcam::io::write_atomically(&output, page.as_bytes())?;
     Ok((output, missing))
+}
+
+/// The identity pose, `check`'s default work object and TCP.
+const IDENTITY: &str = "0,0,0,1,0,0,0";
+
+/// The smoothed trajectory (the file, else the raw one smoothed at `cutoff_hz` as the
+/// report's figures are) checked on the cell's robot as `check` checks it. A robot, pose or
+/// tool given wrong is an error (exit 2 or 1, as `check`'s); a path that cannot be checked is
+/// an absent figure with the reason.
+fn checked_joints(
+    raw: &teachcam::trajectory::Trajectory,
+    smoothed: Option<&teachcam::trajectory::Trajectory>,
+    cutoff_hz: f64,
+    cell: &CellArgs,
+) -> Result<Result<CheckedJoints, Absent>> {
+    let trajectory = match smoothed {
+        Some(s) => s.clone(),
+        None => match teachcam::report::smooth_for_review(raw, cutoff_hz) {
+            Ok(s) => s,
+            Err(e) => {
+                return Ok(Err(Absent(format!(
+                    "the raw trajectory cannot be smoothed for the check: {e}"
+                ))));
+            }
+        },
+    };
+    if trajectory.samples.iter().all(|s| s.pose.is_none()) {
+        return Ok(Err(Absent("the trajectory has no pose to check".into())));
+    }
+    let resolved = resolve_trajectory(trajectory, cell)?;
+    let path = match checked_path(&resolved, &StrokeArgs::default()) {
+        Ok(path) => path,
+        Err(e) => return Ok(Err(Absent(format!("the path cannot be checked: {e}")))),
+    };
+    Ok(Ok(CheckedJoints::new(
+        path.report,
+        &stroke_ranges(&path.strokes),
+        resolved.config.speed_fraction,
+    )))
 }

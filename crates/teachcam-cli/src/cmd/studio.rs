@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::source::SourceSpec;
+use teachcam_studio::server::calibrate::WandSetup;
 use teachcam_studio::server::{Event, Model, StudioConfig, StudioError, run as serve};
 
 use crate::Rejected;
@@ -24,6 +25,12 @@ use crate::capture::{CameraFlags, ModelFlags, parse_source, stop_requested};
 /// camera's frames, its detections and the detector's measured background, noise and
 /// threshold, nothing tracked.
 ///
+/// Calibrate (with `--wand`): a wand dance (`--wand-recording`, or one recorded with Record)
+/// calibrated as `teachcam calibrate wand` calibrates it, each camera's coverage filling in as
+/// its frames are detected, per-camera RMS and the wand length's error shown, the rig drawn
+/// in 3-D and saved into `--out` under a name the page confirms; with `--ground-tool` (and
+/// its recording, `--ground` or recorded) the world is the L-frame's.
+///
 /// The server listens on 127.0.0.1 only. `--listen ADDR` serves other machines, and every
 /// request must then carry the printed token. Ctrl-C stops it (a recording in progress is
 /// finished first). `GET /api/status` answers JSON with `source` and `frames` (processed so
@@ -32,7 +39,8 @@ use crate::capture::{CameraFlags, ModelFlags, parse_source, stop_requested};
 #[command(after_help = r#"Examples:
   teachcam studio
   teachcam studio rec --port 8080 --open
-  teachcam studio --source v4l2:/dev/video0,/dev/video2 --rig rig.json --tool rec/tool.json --out takes"#)]
+  teachcam studio --source v4l2:/dev/video0,/dev/video2 --rig rig.json --tool rec/tool.json --out takes
+  teachcam studio dance/ground --wand dance/wand.json --wand-cameras dance/cameras.json --wand-recording dance/wand --ground-tool dance/lframe.json --ground dance/ground"#)]
 pub struct Args {
     /// A recording folder to play (its rig.json and tool.json unless --rig/--tool).
     pub recording: Option<PathBuf>,
@@ -54,10 +62,76 @@ pub struct Args {
     /// Open the page in the default browser.
     #[arg(long)]
     pub open: bool,
-    /// Folder the recordings are written into.
+    /// Folder the recordings are written into (and the Calibrate tab's rig files).
     #[arg(long, default_value = "studio-recordings")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub wand: WandFlags,
 }
+
+/// The Calibrate tab's inputs: as `calibrate wand` takes them.
+#[derive(Debug, clap::Args)]
+pub struct WandFlags {
+    /// The wand, for the Calibrate tab: `{"name", "marker_diameter_mm", "markers_mm": [0, 160,
+    /// 500]}` (without it the tab says how to give it).
+    #[arg(long)]
+    pub wand: Option<PathBuf>,
+    /// The cameras' intrinsics for the Calibrate tab: a rig file whose extrinsics are ignored
+    /// (default: the rig the studio tracks with).
+    #[arg(long, requires = "wand")]
+    pub wand_cameras: Option<PathBuf>,
+    /// A wand dance already filmed (a recording folder), offered by the Calibrate tab beside
+    /// the recordings made with Record.
+    #[arg(long, requires = "wand")]
+    pub wand_recording: Option<PathBuf>,
+    /// The ground frame's tool file: a marker frame lying on the work object whose frame
+    /// becomes the world (an L-frame).
+    #[arg(long, requires = "wand")]
+    pub ground_tool: Option<PathBuf>,
+    /// A recording of the ground frame lying still, offered by the Calibrate tab.
+    #[arg(long, requires = "ground_tool")]
+    pub ground: Option<PathBuf>,
+}
+
+impl WandFlags {
+    /// The Calibrate tab's setup, `None` without `--wand`; `tracked` is the studio's rig.
+    fn setup(&self, tracked: Option<&teachcam::camera::Rig>) -> anyhow::Result<Option<WandSetup>> {
+        let Some(wand) = &self.wand else {
+            return Ok(None);
+        };
+        let wand = teachcam::io::wand::read_wand(wand).rejected()?;
+        let cameras = match (&self.wand_cameras, tracked) {
+            (Some(path), _) => teachcam::io::rig::read_cameras(path).rejected()?,
+            (None, Some(rig)) => rig.clone(),
+            (None, None) => anyhow::bail!(
+                "--wand: the studio tracks with no rig here, so give the cameras' intrinsics with --wand-cameras CAMERAS.json"
+            ),
+        };
+        for folder in [&self.wand_recording, &self.ground].into_iter().flatten() {
+            anyhow::ensure!(folder.is_dir(), "{}: no such folder", folder.display());
+        }
+        let ground_tool = self
+            .ground_tool
+            .as_deref()
+            .map(teachcam::io::tool::read_tool)
+            .transpose()
+            .rejected()?;
+        Ok(Some(WandSetup {
+            cameras,
+            wand,
+            recording: self.wand_recording.clone(),
+            ground_tool,
+            ground: self.ground.clone(),
+            near_mm: WAND_NEAR_MM,
+            far_mm: WAND_FAR_MM,
+        }))
+    }
+}
+
+/// `calibrate wand`'s default nearest distance from a camera to a marker, millimetres.
+const WAND_NEAR_MM: f64 = 300.0;
+/// `calibrate wand`'s default farthest distance, millimetres.
+const WAND_FAR_MM: f64 = 3000.0;
 
 /// The address to bind.
 fn address(args: &Args) -> anyhow::Result<SocketAddr> {
@@ -114,6 +188,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         _ => None,
     };
     let open = args.open;
+    let wand = args.wand.setup(match &model {
+        Model::Track { rig, .. } => Some(rig),
+        Model::ViewOnly { .. } => None,
+    })?;
     let config = StudioConfig {
         source,
         source_config,
@@ -122,6 +200,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         out: args.out.clone(),
         listen,
         token_everywhere: args.listen.is_some(),
+        wand,
     };
     let events = move |event: Event| match event {
         Event::Listening { url } => {

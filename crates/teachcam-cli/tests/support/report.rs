@@ -27,6 +27,7 @@ pub fn assert_every_figure_drawn(page: &str) {
             "smoothing_study",
             "paths",
             "robot",
+            "joints",
             "tip_error",
             "uncertainty",
             "cameras"

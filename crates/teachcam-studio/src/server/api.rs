@@ -12,6 +12,9 @@
 //! | `GET /api/review?cutoff_hz=X` | `{frames, cutoff_hz, figures}`: the take's review figures at that cut-off |
 //! | `GET /api/robot?robot=&wobj=&tcp=&cutoff_hz=` | the take checked on a robot, joint path |
 //! | `GET /api/export/{rapid\|krl\|krl-dat\|urscript}?...` | the robot program, as a download |
+//! | `GET /api/calibrate` | the Calibrate tab: the wand, the recordings offered, the calibration's stage, coverage and result |
+//! | `POST /api/calibrate/start` | `{"recording": ID, "ground": ID?}`: detect and calibrate, off the async threads |
+//! | `POST /api/calibrate/save` | `{"name": "rig.json", "overwrite": false}`: the rig into the output folder, asked before replacing |
 
 use std::time::Duration;
 
@@ -73,6 +76,9 @@ pub fn router(studio: Studio) -> Router {
         .route("/api/review", get(super::review::review))
         .route("/api/robot", get(super::robot::robot))
         .route("/api/export/{dialect}", get(super::robot::export))
+        .route("/api/calibrate", get(super::calibrate::status))
+        .route("/api/calibrate/start", post(super::calibrate::start))
+        .route("/api/calibrate/save", post(super::calibrate::save))
         .fallback(not_found)
         .layer(DefaultBodyLimit::max(MAX_BODY_BYTES))
         .layer(axum::middleware::map_response(json_errors))
@@ -209,26 +215,7 @@ async fn scene(State(studio): State<Studio>) -> axum::Json<Value> {
             "view_only": config.view_only(),
         }));
     };
-    let cameras: Vec<Value> = rig
-        .iter()
-        .map(|(_, c)| {
-            let world_from_camera = c.camera_from_world.inverse();
-            let r = world_from_camera.rotation.to_rotation_matrix();
-            let m = r.matrix();
-            let t = world_from_camera.translation.vector;
-            json!({
-                "name": c.name,
-                "width": c.image_size.width,
-                "height": c.image_size.height,
-                "fx": c.intrinsics.fx, "fy": c.intrinsics.fy,
-                "cx": c.intrinsics.cx, "cy": c.intrinsics.cy,
-                "position_mm": [t.x, t.y, t.z],
-                "rotation": [[m[(0, 0)], m[(0, 1)], m[(0, 2)]],
-                             [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
-                             [m[(2, 0)], m[(2, 1)], m[(2, 2)]]],
-            })
-        })
-        .collect();
+    let cameras = cameras_json(rig);
     let tip = tool.tool_from_tcp.translation.vector;
     axum::Json(json!({
         "units": "mm",
@@ -437,4 +424,29 @@ async fn send_frames(studio: Studio, mut socket: WebSocket) {
         }
     }
     let _ = socket.send(Message::Close(None)).await;
+}
+
+/// A rig's cameras as the 3-D view draws them: name, image size, intrinsics, the camera's
+/// position and rotation in the world (columns: the camera's x, y, z axes), millimetres.
+#[must_use]
+pub fn cameras_json(rig: &teachcam::camera::Rig) -> Vec<Value> {
+    rig.iter()
+        .map(|(_, c)| {
+            let world_from_camera = c.camera_from_world.inverse();
+            let r = world_from_camera.rotation.to_rotation_matrix();
+            let m = r.matrix();
+            let t = world_from_camera.translation.vector;
+            json!({
+                "name": c.name,
+                "width": c.image_size.width,
+                "height": c.image_size.height,
+                "fx": c.intrinsics.fx, "fy": c.intrinsics.fy,
+                "cx": c.intrinsics.cx, "cy": c.intrinsics.cy,
+                "position_mm": [t.x, t.y, t.z],
+                "rotation": [[m[(0, 0)], m[(0, 1)], m[(0, 2)]],
+                             [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
+                             [m[(2, 0)], m[(2, 1)], m[(2, 2)]]],
+            })
+        })
+        .collect()
 }

@@ -213,6 +213,7 @@ struct Inner {
     pipeline: Mutex<Option<std::thread::JoinHandle<()>>>,
     exposure: ExposureControl,
     events: Arc<dyn Fn(Event) + Send + Sync>,
+    calibration: Mutex<super::calibrate::Job>,
 }
 
 impl Studio {
@@ -239,6 +240,7 @@ impl Studio {
                 exposure: opened.exposure.clone(),
                 events,
                 config,
+                calibration: Mutex::new(super::calibrate::Job::default()),
             }),
         };
         let thread = {
@@ -257,6 +259,14 @@ impl Studio {
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(thread);
         Ok(studio)
+    }
+
+    /// The Calibrate tab's calibration (never held across an await).
+    pub fn calibration(&self) -> MutexGuard<'_, super::calibrate::Job> {
+        self.inner
+            .calibration
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// The configuration it was started with.

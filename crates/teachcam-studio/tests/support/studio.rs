@@ -34,6 +34,7 @@ pub fn sim_config(out: &Path, cached_frames: usize) -> StudioConfig {
         out: out.to_path_buf(),
         listen: SocketAddr::from(([127, 0, 0, 1], 0)),
         token_everywhere: false,
+        wand: None,
     }
 }
 

@@ -22,6 +22,9 @@ const studio = (window.teachcamStudio = {
   status: null, // the last /api/status
   tokenRefused: null, // true when the page was opened without this studio's token
   viewOnly: null, // why nothing is tracked (a recording without a rig), or null
+  calibration: null, // the last /api/calibrate
+  coverageHistory: [], // cells filled over all cameras, at each poll of a running calibration
+  calibrationRenders: 0, // renders of the calibrated rig in 3-D
   frameMs: 0, // smoothed time to draw a live frame on the camera canvases, ms
   renderMs: 0, // smoothed time of a 3-D render, ms
 });
@@ -59,6 +62,7 @@ for (const button of document.querySelectorAll("nav button")) {
     if (button.dataset.tab === "live") resizeScene();
     if (button.dataset.tab === "review") requestReview();
     if (button.dataset.tab === "robot") openRobotTab();
+    if (button.dataset.tab === "calibrate") pollCalibration();
     history.replaceState(null, "", `${location.search}#${button.dataset.tab}`);
   });
 }
@@ -547,6 +551,34 @@ function addFloor() {
   studio.scaleBar = text;
 }
 
+const palette = [0x7986cb, 0x4db6ac, 0xffd54f, 0xba68c8, 0x90a4ae, 0xf06292];
+
+// A camera's frustum (as /api/scene and /api/calibrate give cameras): lines from its centre
+// to the corners of its image at the depth of the world origin along its axis (the working
+// volume), at least 200 mm.
+function cameraFrustum(camera, colour) {
+  const r = camera.rotation;
+  const position = new THREE.Vector3(...camera.position_mm);
+  const axis = new THREE.Vector3(r[0][2], r[1][2], r[2][2]);
+  const depth = Math.max(-position.dot(axis), 200);
+  const corner = (u, v) => {
+    const x = ((u - camera.cx) / camera.fx) * depth;
+    const y = ((v - camera.cy) / camera.fy) * depth;
+    const z = depth;
+    return new THREE.Vector3(
+      r[0][0] * x + r[0][1] * y + r[0][2] * z,
+      r[1][0] * x + r[1][1] * y + r[1][2] * z,
+      r[2][0] * x + r[2][1] * y + r[2][2] * z,
+    ).add(position);
+  };
+  const corners = [corner(0, 0), corner(camera.width, 0), corner(camera.width, camera.height), corner(0, camera.height)];
+  const points = [];
+  for (let k = 0; k < 4; k += 1) points.push(position, corners[k], corners[k], corners[(k + 1) % 4]);
+  const frustum = new THREE.LineSegments(new THREE.BufferGeometry().setFromPoints(points), new THREE.LineBasicMaterial({ color: colour }));
+  frustum.name = camera.name;
+  return { frustum, position, corners };
+}
+
 async function loadScene() {
   sceneInfo = await api("/api/scene");
   if (sceneInfo.view_only) {
@@ -565,34 +597,10 @@ async function loadScene() {
     sceneReady = true;
     return;
   }
-  const palette = [0x7986cb, 0x4db6ac, 0xffd54f, 0xba68c8, 0x90a4ae, 0xf06292];
   cellBox.makeEmpty();
   cellBox.expandByPoint(new THREE.Vector3(0, 0, 0));
   sceneInfo.cameras.forEach((camera, i) => {
-    const r = camera.rotation;
-    const position = new THREE.Vector3(...camera.position_mm);
-    // The frustum reaches the depth of the world origin along the camera's axis (the working
-    // volume), at least 200 mm.
-    const axis = new THREE.Vector3(r[0][2], r[1][2], r[2][2]);
-    const depth = Math.max(-position.dot(axis), 200);
-    const corner = (u, v) => {
-      const x = ((u - camera.cx) / camera.fx) * depth;
-      const y = ((v - camera.cy) / camera.fy) * depth;
-      const z = depth;
-      return new THREE.Vector3(
-        r[0][0] * x + r[0][1] * y + r[0][2] * z,
-        r[1][0] * x + r[1][1] * y + r[1][2] * z,
-        r[2][0] * x + r[2][1] * y + r[2][2] * z,
-      ).add(position);
-    };
-    const c = [corner(0, 0), corner(camera.width, 0), corner(camera.width, camera.height), corner(0, camera.height)];
-    const points = [];
-    for (let k = 0; k < 4; k += 1) points.push(position, c[k], c[k], c[(k + 1) % 4]);
-    const frustum = new THREE.LineSegments(
-      new THREE.BufferGeometry().setFromPoints(points),
-      new THREE.LineBasicMaterial({ color: palette[i % palette.length] }),
-    );
-    frustum.name = camera.name;
+    const { frustum, position, corners: c } = cameraFrustum(camera, palette[i % palette.length]);
     scene.add(frustum);
     const name = label(camera.name, 60, `#${palette[i % palette.length].toString(16).padStart(6, "0")}`);
     name.position.copy(position);
@@ -929,6 +937,271 @@ $("cutoff").addEventListener("input", () => {
   requestReview();
   setExports(null);
 });
+
+// ---- calibrate tab ----
+// The server runs the library's `calibrate wand`; the page polls its state: each camera's
+// coverage filling while the dance is detected, then the result, the rig in 3-D, the save.
+let calibTimer = null;
+let calibResultShown = null;
+let calib3 = null;
+
+const CALIB_RUNNING = ["detecting", "detecting_ground", "calibrating"];
+
+function fillSelect(select, options, keepEmpty) {
+  const chosen = select.value;
+  const wanted = options.map((o) => `${o.id}|${o.what}`).join(",");
+  if (select.dataset.options === wanted) return;
+  select.dataset.options = wanted;
+  for (const option of Array.from(select.options)) if (!keepEmpty || option.value) option.remove();
+  for (const o of options) {
+    const option = document.createElement("option");
+    option.value = o.id;
+    option.textContent = `${o.id}: ${o.what}`;
+    option.title = o.path;
+    select.append(option);
+  }
+  if (options.some((o) => o.id === chosen)) select.value = chosen;
+}
+
+async function pollCalibration() {
+  clearTimeout(calibTimer);
+  let state;
+  try {
+    state = await api("/api/calibrate");
+  } catch (error) {
+    showError(error.message);
+    return;
+  }
+  studio.calibration = state;
+  const active = $("tab-calibrate").classList.contains("active");
+  if (!state.available) {
+    $("calib-unavailable").textContent = `Calibrate: ${state.reason}`;
+    $("calib-unavailable").hidden = false;
+    $("calib-panel").hidden = true;
+    return;
+  }
+  $("calib-unavailable").hidden = true;
+  $("calib-panel").hidden = false;
+  fillSelect($("calib-recording"), state.recordings, false);
+  if ($("calib-recording").value === "" && state.recordings.length) $("calib-recording").value = state.recordings[0].id;
+  if (state.ground_tool) {
+    fillSelect($("calib-ground"), state.recordings, true);
+    $("calib-ground").disabled = false;
+    if (!$("calib-ground").dataset.chosen && state.recordings.some((r) => r.id === "ground")) {
+      $("calib-ground").value = "ground";
+      $("calib-ground").dataset.chosen = "1";
+    }
+  } else {
+    $("calib-ground").disabled = true;
+  }
+  $("calib-wand").textContent = `wand '${state.wand.name}': markers at ${state.wand.markers_mm.join(", ")} mm (${state.wand.length_mm} mm end to end); cameras ${state.cameras.join(", ")}`;
+  $("calib-world").textContent = `world: ${state.world}`;
+  const running = CALIB_RUNNING.includes(state.stage);
+  $("calibrate").disabled = running || state.recordings.length === 0;
+  const total = state.frames_total ? ` of ${state.frames_total}` : "";
+  const words = {
+    idle: state.recordings.length ? "choose the dance and press Calibrate" : "no recording yet: record a wand dance with ● Record",
+    detecting: `detecting the dance: ${state.frames_done}${total} frames`,
+    detecting_ground: `detecting the ground frame: ${state.frames_done}${total} frames`,
+    calibrating: "calibrating…",
+    done: `calibrated from ${state.recording}`,
+    failed: `failed: ${state.error}`,
+  };
+  $("calib-state").textContent = words[state.stage] ?? state.stage;
+  $("calib-state").dataset.stage = state.stage;
+  drawCoverage(state.coverage);
+  if (running) studio.coverageHistory.push(Number($("calib-coverage").dataset.filled));
+  if (state.stage === "done" && state.result && calibResultShown !== state.result) {
+    calibResultShown = state.result;
+    showCalibration(state);
+  }
+  if (state.stage !== "done") $("calib-result").hidden = true;
+  if (running || active) calibTimer = setTimeout(pollCalibration, running ? 250 : 2000);
+}
+
+// Each camera's image as a grid of cells, a cell brighter the more wand markers fell in it.
+function drawCoverage(coverage) {
+  const box = $("calib-coverage");
+  let filled = 0;
+  coverage.forEach((c, index) => {
+    let figure = box.children[index];
+    if (!figure) {
+      figure = document.createElement("figure");
+      figure.append(document.createElement("canvas"), document.createElement("figcaption"));
+      box.append(figure);
+    }
+    const canvas = figure.firstChild;
+    canvas.width = 240;
+    canvas.height = Math.round((240 * c.height_px) / Math.max(c.width_px, 1));
+    canvas.dataset.camera = c.camera;
+    const context = canvas.getContext("2d");
+    context.fillStyle = "#000";
+    context.fillRect(0, 0, canvas.width, canvas.height);
+    const w = canvas.width / c.columns;
+    const h = canvas.height / c.rows;
+    const most = Math.max(...c.counts, 1);
+    let cells = 0;
+    c.counts.forEach((count, k) => {
+      if (count > 0) {
+        cells += 1;
+        const level = 0.25 + (0.75 * count) / most;
+        context.fillStyle = `rgba(63, 191, 111, ${level})`;
+        context.fillRect((k % c.columns) * w, Math.floor(k / c.columns) * h, w, h);
+      }
+    });
+    context.strokeStyle = "#3a434e";
+    for (let i = 0; i <= c.columns; i += 1) context.strokeRect(i * w, 0, 0, canvas.height);
+    for (let j = 0; j <= c.rows; j += 1) context.strokeRect(0, j * h, canvas.width, 0);
+    canvas.dataset.filled = cells;
+    figure.lastChild.textContent = `${c.camera}: ${c.views} wand views, ${cells} of ${c.counts.length} cells`;
+    filled += cells;
+  });
+  while (box.children.length > coverage.length) box.lastChild.remove();
+  box.dataset.filled = filled;
+}
+
+function showCalibration(state) {
+  const result = state.result;
+  $("calib-result").hidden = false;
+  $("calib-length").textContent = `wand length ${result.length_mean_mm.toFixed(3)} mm (${result.length_error_percent >= 0 ? "+" : ""}${result.length_error_percent.toFixed(3)} % of ${result.length_mm} mm), error rms ${result.length_error_rms_mm.toFixed(4)} mm, max ${result.length_error_max_mm.toFixed(4)} mm; ${result.frames_used} of ${result.frames} frames used`;
+  const table = $("calib-cameras");
+  table.replaceChildren();
+  const head = table.insertRow();
+  for (const h of ["camera", "frames", "dropped", "RMS (px)", "centre ± (mm)", "rotation ± (°)"]) {
+    const th = document.createElement("th");
+    th.textContent = h;
+    head.append(th);
+  }
+  for (const c of result.cameras) {
+    const row = table.insertRow();
+    row.dataset.camera = c.name;
+    row.dataset.rmsPx = c.rms_px;
+    for (const v of [c.name, c.frames, c.dropped, c.rms_px.toFixed(4), c.centre_std_mm.toFixed(3), c.rotation_std_deg.toFixed(4)]) row.insertCell().textContent = v;
+  }
+  $("calib-world-result").textContent = result.world;
+  $("calib-warning").textContent = result.warning ?? "";
+  $("calib-lines").textContent = result.lines.join("\n");
+  $("calib-saved").textContent = "";
+  showSavePath();
+  drawCalibratedRig(result.rig);
+}
+
+// The calibrated rig in 3-D: its cameras' frusta (as the live view draws them) and the world
+// axes, framed on them; a renderer of its own, made when first needed.
+function drawCalibratedRig(cameras) {
+  const box = $("calib-scene");
+  if (!calib3) {
+    const renderer3 = new THREE.WebGLRenderer({ antialias: false });
+    renderer3.setPixelRatio(1);
+    box.append(renderer3.domElement);
+    const camera3 = new THREE.PerspectiveCamera(45, 1, 1, 100000);
+    const controls = new OrbitControls(camera3, renderer3.domElement);
+    calib3 = { renderer: renderer3, camera: camera3, controls, scene: null };
+    controls.addEventListener("change", () => renderCalibration());
+  }
+  const scene3 = new THREE.Scene();
+  scene3.background = new THREE.Color(0x0c0e11);
+  const box3 = new THREE.Box3().expandByPoint(new THREE.Vector3(0, 0, 0));
+  const names = [];
+  cameras.forEach((camera, i) => {
+    const { frustum, position, corners } = cameraFrustum(camera, palette[i % palette.length]);
+    scene3.add(frustum);
+    const name = label(camera.name, 1, `#${palette[i % palette.length].toString(16).padStart(6, "0")}`);
+    name.position.copy(position);
+    names.push(name);
+    scene3.add(name);
+    box3.expandByPoint(position);
+    for (const p of corners) box3.expandByPoint(p);
+  });
+  const size = box3.getSize(new THREE.Vector3()).length();
+  // Text a 30th of the rig across: readable from where the rig is framed.
+  for (const name of names) name.scale.multiplyScalar(size / 30);
+  scene3.add(new THREE.AxesHelper(size / 6));
+  scene3.add(label("world", size / 30));
+  calib3.scene = scene3;
+  const width = box.clientWidth || 640;
+  const height = box.clientHeight || 420;
+  calib3.renderer.setSize(width, height, false);
+  calib3.renderer.domElement.style.width = "100%";
+  calib3.renderer.domElement.style.height = "100%";
+  const centre = box3.getCenter(new THREE.Vector3());
+  const mean = new THREE.Vector3();
+  for (const camera of cameras) mean.add(new THREE.Vector3(...camera.position_mm));
+  mean.divideScalar(Math.max(cameras.length, 1));
+  // From behind the cameras, raised: the frusta in depth.
+  const direction = mean.clone().sub(centre);
+  if (direction.lengthSq() < 1e-6) direction.set(0, -1, 1);
+  direction.normalize();
+  const up = new THREE.Vector3();
+  for (const camera of cameras) up.sub(new THREE.Vector3(camera.rotation[0][1], camera.rotation[1][1], camera.rotation[2][1]));
+  if (up.lengthSq() > 0) calib3.camera.up.copy(up.normalize());
+  calib3.camera.aspect = width / height;
+  const distance = (0.6 * size) / Math.sin(THREE.MathUtils.degToRad(22.5));
+  calib3.camera.position.copy(centre.clone().addScaledVector(direction.addScaledVector(calib3.camera.up, 0.5).normalize(), distance));
+  calib3.camera.near = Math.max(distance / 100, 1);
+  calib3.camera.far = distance * 20;
+  calib3.camera.updateProjectionMatrix();
+  calib3.controls.target.copy(centre);
+  calib3.controls.update();
+  renderCalibration();
+}
+
+function renderCalibration() {
+  if (!calib3?.scene) return;
+  calib3.renderer.render(calib3.scene, calib3.camera);
+  studio.calibrationRenders += 1;
+}
+
+function showSavePath() {
+  const out = studio.calibration?.out ?? "";
+  $("calib-path").textContent = `→ ${out}/${$("calib-name").value}`;
+  $("calib-confirm").hidden = true;
+  $("calib-overwrite").hidden = true;
+}
+
+async function saveRig(overwrite) {
+  try {
+    const saved = await post("/api/calibrate/save", { name: $("calib-name").value, overwrite });
+    $("calib-confirm").hidden = true;
+    if (saved.saved) {
+      $("calib-saved").textContent = `saved ${saved.path}`;
+      $("calib-saved").dataset.path = saved.path;
+      $("calib-overwrite").hidden = true;
+    } else {
+      $("calib-saved").textContent = saved.message;
+      $("calib-overwrite").hidden = false;
+    }
+    showError("");
+  } catch (error) {
+    showError(error.message);
+  }
+}
+
+$("calib-form").addEventListener("submit", async (event) => {
+  event.preventDefault();
+  try {
+    studio.coverageHistory = [];
+    calibResultShown = null;
+    await post("/api/calibrate/start", { recording: $("calib-recording").value, ground: $("calib-ground").value || null });
+    showError("");
+  } catch (error) {
+    showError(error.message);
+  }
+  pollCalibration();
+});
+$("calib-ground").addEventListener("change", () => {
+  $("calib-ground").dataset.chosen = "1";
+});
+$("calib-name").addEventListener("input", showSavePath);
+// Saving asks first: the path shown, then Confirm; an existing file only with Overwrite.
+$("calib-save-form").addEventListener("submit", (event) => {
+  event.preventDefault();
+  $("calib-saved").textContent = `save the rig to ${studio.calibration?.out}/${$("calib-name").value}?`;
+  $("calib-confirm").hidden = false;
+  $("calib-overwrite").hidden = true;
+});
+$("calib-confirm").addEventListener("click", () => saveRig(false));
+$("calib-overwrite").addEventListener("click", () => saveRig(true));
 
 // ---- start ----
 // The page asks first whether its token is this studio's (`/api/session` answers without it):

@@ -39,6 +39,7 @@
 mod bundle;
 mod essential;
 mod ground;
+pub mod run;
 mod views;
 
 pub use ground::{GroundReport, set_ground};

@@ -3,22 +3,21 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
-use teachcam::calib::wand::{
-    Wand, WandCalibration, WandConfig, WandViews, calibrate_wand, set_ground, wand_views,
-};
+use anyhow::bail;
+use teachcam::calib::wand::run::{WandRun, detect_wand_views};
+use teachcam::calib::wand::{WandConfig, WandError};
 use teachcam::camera::Rig;
 use teachcam::correspond::Views;
-use teachcam::detect::DetectConfig;
 use teachcam::io::rig::{read_cameras, write_rig};
 use teachcam::io::tool::read_tool;
 use teachcam::io::wand::read_wand;
 use teachcam::io::wand_points::{DltdvOrigin, PointsFormat, read_wand_points};
 use teachcam::io::{Output, check_outputs, write_atomically};
-use teachcam::pipeline::CameraSetup;
+use teachcam::source::FrameSource as _;
+use teachcam::source::folder::FolderSource;
 
 use crate::Rejected;
-use crate::recording::detect_folder;
+use crate::progress::Progress;
 
 /// The rig from a wand dance (and the world from a ground frame).
 ///
@@ -95,34 +94,27 @@ pub enum Origin {
     Bottom,
 }
 
-/// Detected blob centres of every frame of a recording, by rig camera.
+/// Detected blob centres of every frame of a recording, by rig camera (the library's
+/// [`detect_wand_views`], a progress bar on a terminal).
 fn detect_views(
     recording: &Path,
     rig: &Rig,
     marker_diameter_mm: f64,
     args: &WandArgs,
 ) -> anyhow::Result<Vec<Views>> {
-    let detected = detect_folder(recording, None, |_| {
-        Ok(rig
-            .cameras
-            .iter()
-            .map(|camera| CameraSetup {
-                name: camera.name.clone(),
-                detect: DetectConfig::for_marker(camera, marker_diameter_mm, args.near, args.far),
-                size: Some((camera.image_size.width, camera.image_size.height)),
-            })
-            .collect())
-    })?;
-    Ok(detected
-        .blobs_by_camera(rig)
-        .into_iter()
-        .map(|frame| {
-            frame
-                .into_iter()
-                .map(|(id, blobs)| (id, blobs.iter().map(|b| b.center).collect()))
-                .collect()
-        })
-        .collect())
+    let mut source = FolderSource::open(recording, None).rejected()?;
+    let progress = Progress::new("detect", source.len_hint().unwrap_or(0) as u64);
+    let views = detect_wand_views(
+        &mut source,
+        rig,
+        marker_diameter_mm,
+        args.near,
+        args.far,
+        &mut |_| progress.tick(),
+    )
+    .rejected()?;
+    progress.finish();
+    Ok(views)
 }
 
 /// Run `calibrate wand`.
@@ -210,69 +202,45 @@ pub fn run_wand(args: &WandArgs) -> anyhow::Result<()> {
             .rejected();
         }
     };
-    let config = WandConfig::default();
-    let views = wand_views(&cameras, &frames, &wand, &config);
-    let result = calibrate_wand(&cameras, &views.frames, &wand, &config)
-        .with_context(|| format!("{}: wand calibration", source.display()))
-        .rejected()?;
-    println!(
-        "wand: {} markers, {} frames, {} camera-frames with {} points ({} not collinear beyond {:.2} px, {} with the ends not told apart by the image)",
-        wand.markers_mm.len(),
-        frames.len(),
-        views.whole,
-        wand.markers_mm.len(),
-        views.not_collinear,
-        views.line_gate_px,
-        views.ends_unlabelled
-    );
-    print_result(&result, &wand);
-    let report = report_json(&source, &format, &wand, &views, &result);
-    let rig = match (&args.ground, &ground_tool) {
-        (Some(folder), Some(tool)) => {
-            let ground_frames = detect_views(folder, &result.rig, tool.marker_diameter_mm, args)?;
-            let (rig, report) = set_ground(&result.rig, &ground_frames, tool)
-                .with_context(|| format!("{}: ground frame", folder.display()))
-                .rejected()?;
-            println!(
-                "ground: '{}' posed in {} of {} frames, origin scatter {:.3} mm, registration rms {:.3} mm; world = its frame",
-                tool.name,
-                report.posed,
-                report.frames,
-                report.scatter_mm,
-                report.registration_rms_mm
-            );
-            if report.cameras_below.len() == rig.cameras.len() {
-                crate::announce::warn(&format!(
-                    "every camera is below the ground frame's x-y plane (z < 0 in the new world): {}'s z axis points into the work object; the world (and a robot's work object set from it) is upside down unless that is meant",
-                    args.ground_tool
-                        .as_deref()
-                        .map_or_else(String::new, |p| p.display().to_string())
-                ));
-            }
-            rig
-        }
-        _ => {
-            println!("world: camera {}'s frame", result.rig.cameras[0].name);
-            result.rig.clone()
-        }
+    let ground_frames = match (&args.ground, &ground_tool) {
+        (Some(folder), Some(tool)) => Some(detect_views(
+            folder,
+            &cameras,
+            tool.marker_diameter_mm,
+            args,
+        )?),
+        _ => None,
     };
-    let finite = rig.cameras.iter().all(|c| {
-        c.camera_from_world
-            .translation
-            .vector
-            .iter()
-            .chain(c.camera_from_world.rotation.coords.iter())
-            .all(|v| v.is_finite())
-    });
-    if !finite {
-        return Err(anyhow::anyhow!("the calibrated rig is not finite")).rejected();
+    let ground = ground_frames.as_deref().zip(ground_tool.as_ref());
+    let run: WandRun = teachcam::calib::wand::run::run_wand(
+        &cameras,
+        &frames,
+        &wand,
+        ground,
+        &WandConfig::default(),
+    )
+    .map_err(|e| {
+        let what = match (&e, &args.ground) {
+            (WandError::Ground { .. }, Some(folder)) => {
+                format!("{}: ground frame", folder.display())
+            }
+            _ => format!("{}: wand calibration", source.display()),
+        };
+        anyhow::Error::new(e).context(what)
+    })
+    .rejected()?;
+    for line in run.lines(&wand, frames.len()) {
+        println!("{line}");
     }
-    if !(result.length_mean_mm.is_finite() && result.length_std_mm.is_finite()) {
-        return Err(anyhow::anyhow!(
-            "the wand's length could not be triangulated in any used frame"
-        ))
-        .rejected();
+    let ground_tool_name = args
+        .ground_tool
+        .as_deref()
+        .map_or_else(String::new, |p| p.display().to_string());
+    if let Some(warning) = run.ground_warning(&ground_tool_name) {
+        crate::announce::warn(&warning);
     }
+    let report = run.report_json(&source.display().to_string(), &format, &wand);
+    let rig = run.rig;
     write_rig(&args.output, &rig)?;
     let mut written = vec![args.output.clone()];
     if let Some(path) = &args.report {
@@ -281,75 +249,4 @@ pub fn run_wand(args: &WandArgs) -> anyhow::Result<()> {
     }
     crate::announce::wrote(&written, &format!("{} cameras", rig.cameras.len()));
     Ok(())
-}
-
-/// The calibration's figures as JSON.
-fn report_json(
-    source: &Path,
-    format: &str,
-    wand: &Wand,
-    views: &WandViews,
-    result: &WandCalibration,
-) -> serde_json::Value {
-    serde_json::json!({
-        "source": source.display().to_string(),
-        "format": format,
-        "wand_markers_mm": wand.markers_mm,
-        "wand_length_mm": wand.length_mm(),
-        "whole_views": views.whole,
-        "views_ends_unlabelled": views.ends_unlabelled,
-        "views_not_collinear": views.not_collinear,
-        "frames_used": result.frames_used,
-        "frames_rejected": result.frames_rejected,
-        "frames_ambiguous": result.frames_ambiguous,
-        "residual_gate_px": result.residual_gate_px,
-        "length_mean_mm": result.length_mean_mm,
-        "length_std_mm": result.length_std_mm,
-        "length_std_percent": result.length_std_percent(),
-        "length_mean_error_percent": 100.0 * (result.length_mean_mm - wand.length_mm()) / wand.length_mm(),
-        "length_error_rms_mm": result.length_rms_mm,
-        "length_error_max_mm": result.length_max_mm,
-        "cameras": result.cameras.iter().map(|c| serde_json::json!({
-            "name": c.name,
-            "frames": c.frames,
-            "dropped": c.dropped,
-            "reprojection_rms_px": c.rms_px,
-            "centre_std_mm": c.centre_std_mm,
-            "rotation_std_deg": c.rotation_std_deg,
-        })).collect::<Vec<_>>(),
-        "iterations": result.iterations,
-        "converged": result.converged,
-        "intrinsics": "held as given",
-    })
-}
-
-/// Frames used, per-camera residual and σ, wand length.
-fn print_result(result: &WandCalibration, wand: &Wand) {
-    println!(
-        "frames used {}, rejected {} (residual gate {:.3} px), ambiguous {} (two pairings of the unlabelled ends fitted alike: dropped), {} iterations",
-        result.frames_used,
-        result.frames_rejected,
-        result.residual_gate_px,
-        result.frames_ambiguous,
-        result.iterations
-    );
-    for c in &result.cameras {
-        println!(
-            "{}: {} frames ({} camera-frames dropped), rms {:.4} px, centre ± {:.3} mm, rotation ± {:.4}° (intrinsics taken as exact)",
-            c.name, c.frames, c.dropped, c.rms_px, c.centre_std_mm, c.rotation_std_deg
-        );
-    }
-    println!(
-        "wand length: mean {:.3} mm ({:+.3} % of {} mm), std {:.3} mm = {:.4} % of the mean; error rms {:.4} mm, max {:.4} mm",
-        result.length_mean_mm,
-        100.0 * (result.length_mean_mm - wand.length_mm()) / wand.length_mm(),
-        wand.length_mm(),
-        result.length_std_mm,
-        result.length_std_percent(),
-        result.length_rms_mm,
-        result.length_max_mm
-    );
-    if !result.converged {
-        println!("warning: the bundle adjustment stopped at its iteration limit, not at a minimum");
-    }
 }
