@@ -620,3 +620,127 @@ async fn the_review_gives_the_takes_figures_at_the_asked_cut_off() {
     assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{body}");
     studio.finish();
 }
+
+/// The Calibrate API: without a wand it says how to give one; with one it offers only the
+/// recordings it knows (a take recorded here appears by its name), runs the library's wand
+/// calibration on it and reports its failure in one line (the paper's stroke is no wand
+/// dance: four blobs, not the wand's three), and saves nothing before a calibration nor
+/// outside the output folder.
+#[tokio::test(flavor = "multi_thread")]
+async fn calibrate_offers_its_recordings_and_refuses_paths() {
+    let out = tempfile::tempdir().unwrap();
+    let bare = studio(out.path());
+    let (_, state) = json(&bare, request("GET", "/api/calibrate", &[], Body::empty())).await;
+    assert_eq!(state["available"], false);
+    assert!(
+        state["reason"].as_str().unwrap().contains("--wand"),
+        "{state}"
+    );
+    let (status, _) = json(
+        &bare,
+        post(&bare, "/api/calibrate/start", r#"{"recording": "wand"}"#),
+    )
+    .await;
+    assert_eq!(status, StatusCode::CONFLICT);
+    bare.finish();
+
+    let mut config = served::sim_config(out.path(), 10);
+    let rig = config.tracking().unwrap().0.clone();
+    config.wand = Some(teachcam_studio::server::calibrate::WandSetup {
+        cameras: rig,
+        wand: teachcam::sim::wand::contract_wand(),
+        recording: None,
+        ground_tool: None,
+        ground: None,
+        near_mm: 300.0,
+        far_mm: 3000.0,
+    });
+    let studio = studio_with(config);
+    let (_, state) = json(
+        &studio,
+        request("GET", "/api/calibrate", &[], Body::empty()),
+    )
+    .await;
+    assert_eq!(state["available"], true, "{state}");
+    assert_eq!(state["recordings"], serde_json::json!([]));
+    assert!(
+        state["world"].as_str().unwrap().contains("first camera"),
+        "{state}"
+    );
+    let (status, body) = json(
+        &studio,
+        post(&studio, "/api/calibrate/start", r#"{"recording": "/etc"}"#),
+    )
+    .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{body}");
+    assert!(
+        body["error"].as_str().unwrap().contains("not offered"),
+        "{body}"
+    );
+    for (name, expected) in [
+        ("../rig.json", StatusCode::BAD_REQUEST),
+        ("rig.txt", StatusCode::BAD_REQUEST),
+        ("rig.json", StatusCode::CONFLICT),
+    ] {
+        let (status, body) = json(
+            &studio,
+            post(
+                &studio,
+                "/api/calibrate/save",
+                &format!(r#"{{"name": "{name}"}}"#),
+            ),
+        )
+        .await;
+        assert_eq!(status, expected, "{name}: {body}");
+    }
+    // A take recorded here is offered by its name, and calibrated.
+    wait_for_frames(&studio, 0).await;
+    let (status, _) = json(&studio, post(&studio, "/api/record", "")).await;
+    assert_eq!(status, StatusCode::OK);
+    let started = wait_for_frames(&studio, 0).await["frames"]
+        .as_u64()
+        .unwrap();
+    wait_for_frames(&studio, started + 10).await;
+    let (status, _) = json(&studio, post(&studio, "/api/stop", "")).await;
+    assert_eq!(status, StatusCode::OK);
+    let (_, state) = json(
+        &studio,
+        request("GET", "/api/calibrate", &[], Body::empty()),
+    )
+    .await;
+    assert_eq!(state["recordings"][0]["id"], "take-001", "{state}");
+    let (status, body) = json(
+        &studio,
+        post(
+            &studio,
+            "/api/calibrate/start",
+            r#"{"recording": "take-001"}"#,
+        ),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{body}");
+    let mut state = Value::Null;
+    for _ in 0..200 {
+        state = json(
+            &studio,
+            request("GET", "/api/calibrate", &[], Body::empty()),
+        )
+        .await
+        .1;
+        if state["stage"] == "failed" || state["stage"] == "done" {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    assert_eq!(state["stage"], "failed", "{state}");
+    assert!(
+        state["error"]
+            .as_str()
+            .unwrap()
+            .contains("frames show the wand"),
+        "{state}"
+    );
+    assert!(state["frames_done"].as_u64().unwrap() >= 5, "{state}");
+    assert!(!out.path().join("rig.json").exists());
+    studio.finish();
+}
