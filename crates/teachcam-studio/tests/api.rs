@@ -744,3 +744,54 @@ async fn calibrate_offers_its_recordings_and_refuses_paths() {
     assert!(!out.path().join("rig.json").exists());
     studio.finish();
 }
+
+/// Robot & export takes `export`'s span, strokes and free tool axis: a span outside the take
+/// is refused naming it, a span checks only its frames, the free axis is said, and the strokes
+/// are listed.
+#[tokio::test(flavor = "multi_thread")]
+async fn the_robot_check_takes_exports_span_strokes_and_free_tool_axis() {
+    let out = tempfile::tempdir().unwrap();
+    let studio = studio(out.path());
+    wait_for_frames(&studio, 40).await;
+    let get = |query: String| {
+        request(
+            "GET",
+            &format!("/api/robot?robot=irb120&{query}"),
+            &[],
+            Body::empty(),
+        )
+    };
+    let (status, whole) = json(&studio, get(String::new())).await;
+    assert_eq!(status, StatusCode::OK, "{whole}");
+    assert!(!whole["strokes"].as_array().unwrap().is_empty(), "{whole}");
+    let times: Vec<f64> = whole["path"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["time_s"].as_f64().unwrap())
+        .collect();
+    let (status, body) = json(&studio, get("from_s=100000".into())).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{body}");
+    assert!(
+        body["error"].as_str().unwrap().contains("outside the take"),
+        "{body}"
+    );
+    let (status, body) = json(&studio, get("lift_mm=-1".into())).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{body}");
+    // The first half of the take: fewer frames, none after its end.
+    let half = 0.5 * (times[0] + times[times.len() - 1]);
+    let (status, span) = json(&studio, get(format!("to_s={half}"))).await;
+    assert_eq!(status, StatusCode::OK, "{span}");
+    assert!(span["frames"].as_u64() < whole["frames"].as_u64(), "{span}");
+    let (status, free) = json(&studio, get("free_tool_axis=true".into())).await;
+    assert_eq!(status, StatusCode::OK, "{free}");
+    assert!(
+        free["tool_axis"]
+            .as_str()
+            .unwrap()
+            .contains("tool axis free"),
+        "{free}"
+    );
+    assert!(whole["tool_axis"].is_null(), "{whole}");
+    studio.finish();
+}

@@ -297,6 +297,33 @@ async fn studio_checks(
         "the suggested work object passes: {}",
         browser.eval("return document.getElementById('robot-summary').textContent").await
     );
+    // The strokes are listed; the free tool axis is export's, said when chosen.
+    browser
+        .eval("document.getElementById('free-tool-axis').checked = true; document.getElementById('robot-check').click(); return true")
+        .await;
+    ensure!(
+        browser
+            .wait_for(
+                "const p = document.getElementById('robot-strokes'); return Number(p.dataset.strokes) >= 1 && p.textContent.includes('tool axis free')",
+                Duration::from_secs(30)
+            )
+            .await,
+        "the strokes and the free tool axis are said: {}",
+        browser.eval("return document.getElementById('robot-strokes').textContent").await
+    );
+    browser
+        .eval("document.getElementById('free-tool-axis').checked = false; document.getElementById('robot-check').click(); return true")
+        .await;
+    ensure!(
+        browser
+            .wait_for(
+                &format!("return {studio}.robot.passes === true && !document.getElementById('robot-strokes').textContent.includes('tool axis free') && document.getElementById('export-rapid').hasAttribute('href')"),
+                Duration::from_secs(30)
+            )
+            .await,
+        "checked again without the free axis: {}",
+        browser.eval("return document.getElementById('robot-summary').textContent").await
+    );
     // Calibrate, on a studio given no wand: the tab says how to give one.
     browser
         .eval("document.querySelector('nav button[data-tab=calibrate]').click(); return true")

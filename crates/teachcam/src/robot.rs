@@ -19,6 +19,7 @@
 //! and [`table`] (CSV).
 
 pub mod check;
+pub mod checked;
 pub mod frames;
 pub mod free_axis;
 pub mod gaps;

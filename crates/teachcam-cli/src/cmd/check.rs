@@ -7,14 +7,12 @@ use anyhow::{Context, bail};
 use nalgebra::UnitQuaternion;
 use teachcam::geometry::Pose;
 use teachcam::io::trajectory::read_trajectory;
-use teachcam::robot::check::{CheckConfig, CheckReport, check_strokes, issue_ranges};
-use teachcam::robot::free_axis::{FreeAxisConfig, choose_roll};
+use teachcam::robot::check::{CheckConfig, CheckReport, issue_ranges};
+use teachcam::robot::checked::{CheckedPath, PathError, PathOptions, no_stroke_line};
 use teachcam::robot::gaps::{Gap, GapConfig, find_gaps};
 use teachcam::robot::kinematics::Robot;
 use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
-use teachcam::robot::strokes::{
-    Span, Stroke, StrokeConfig, find_strokes, lowest_height_mm, whole_take,
-};
+use teachcam::robot::strokes::{Span, Stroke, StrokeConfig, find_strokes};
 use teachcam::robot::table::joints_csv;
 use teachcam::robot::{Cell, TcpTarget, tcp_targets};
 
@@ -152,6 +150,16 @@ impl Default for StrokeArgs {
 }
 
 impl StrokeArgs {
+    /// The library's [`PathOptions`] of these flags, the tool's axis free or not.
+    pub fn options(&self, free_tool_axis: bool) -> PathOptions {
+        PathOptions {
+            from_s: self.from,
+            to_s: self.to,
+            strokes: self.config(),
+            free_tool_axis,
+        }
+    }
+
     /// The options of [`find_strokes`].
     pub fn config(&self) -> StrokeConfig {
         StrokeConfig {
@@ -176,32 +184,6 @@ impl StrokeArgs {
         }
     }
 
-    /// [`StrokeArgs::strokes`] for `check` and `export`: a span that never touches the work
-    /// surface (a world whose xy-plane is not the surface) is checked whole, as one stroke,
-    /// with a warning saying so; a span without two poses is refused (exit 1).
-    pub fn program_strokes(
-        &self,
-        targets: &[TcpTarget],
-        take_s: (f64, f64),
-    ) -> anyhow::Result<(Vec<TcpTarget>, Vec<Stroke>)> {
-        let (trimmed, strokes) = self.split(targets, take_s)?;
-        match strokes {
-            Ok(strokes) => Ok((trimmed, strokes)),
-            Err(none) => {
-                let Some(whole) = whole_take(&trimmed) else {
-                    return Err(anyhow::anyhow!(
-                        "fewer than two frames with a pose in the span checked"
-                    ))
-                    .rejected();
-                };
-                crate::announce::warn(&format!(
-                    "{none}: the whole span is taken as one stroke (is the world's xy-plane the work surface? --lift-mm)"
-                ));
-                Ok((trimmed, vec![whole]))
-            }
-        }
-    }
-
     /// The trimmed targets and their strokes, or the line saying there is none.
     fn split(&self, targets: &[TcpTarget], take_s: (f64, f64)) -> anyhow::Result<Split> {
         let span = Span::within(take_s.0, take_s.1, self.from, self.to)?;
@@ -210,14 +192,7 @@ impl StrokeArgs {
         if !strokes.is_empty() {
             return Ok((trimmed, Ok(strokes)));
         }
-        let lowest = lowest_height_mm(&trimmed).map_or_else(
-            || "no frame has a pose".to_string(),
-            |h| format!("the tip's lowest height is {h:.1} mm"),
-        );
-        let none = format!(
-            "no stroke in {:.3}-{:.3} s: the tip never comes within --lift-mm {} of the work surface (the world's xy-plane) for two frames; {lowest}",
-            span.from_s, span.to_s, self.lift_mm
-        );
+        let none = no_stroke_line(&span, &trimmed, self.lift_mm);
         Ok((trimmed, Err(none)))
     }
 }
@@ -520,6 +495,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         strokes,
         tool_axis,
         report,
+        ..
     } = checked_path(&resolved, &args.strokes)?;
     if let Some(path) = &args.joints_out {
         teachcam::io::write_atomically(path, joints_csv(&report).as_bytes())?;
@@ -551,68 +527,33 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
 }
 
-/// The path the robot runs, as `check` checks it.
-#[derive(Debug)]
-pub struct CheckedPath {
-    /// The targets within `--from`/`--to`, the roll chosen where the tool's axis is free.
-    pub targets: Vec<TcpTarget>,
-    /// Their strokes.
-    pub strokes: Vec<Stroke>,
-    /// The line saying the roll was chosen, when it was.
-    pub tool_axis: Option<String>,
-    /// Each stroke checked on its own, at one time scale.
-    pub report: CheckReport,
-}
-
 /// The targets of `resolved` within `--from`/`--to`, split into strokes, the roll about the
-/// tool's axis chosen where it is free, and their check: what `check` prints and writes with
-/// `--joints-out`, `export` programs and `export mcap` records.
+/// tool's axis chosen where it is free, and their check (the library's
+/// [`teachcam::robot::checked::checked_path`]): what `check` prints and writes with
+/// `--joints-out`, `export` programs, `export mcap` records and `report --robot` draws. A span
+/// without a stroke is checked whole, with a warning saying so.
 ///
 /// # Errors
-/// As [`StrokeArgs::program_strokes`].
+/// A span outside the take (usage, exit 2); fewer than two poses in it (exit 1).
 pub fn checked_path(resolved: &Resolved, strokes: &StrokeArgs) -> anyhow::Result<CheckedPath> {
-    let (targets, strokes) = strokes.program_strokes(&resolved.targets, resolved.take_s)?;
-    let (targets, tool_axis) = free_roll(resolved, targets, &strokes);
-    let report = check_strokes(
+    let path = teachcam::robot::checked::checked_path(
         &resolved.robot,
         &resolved.cell,
-        &targets,
-        &stroke_ranges(&strokes),
+        &resolved.targets,
+        resolved.take_s,
+        &strokes.options(resolved.free_tool_axis),
         &resolved.config,
-    );
-    Ok(CheckedPath {
-        targets,
-        strokes,
-        tool_axis,
-        report,
-    })
-}
-
-/// The targets with the roll about the tool's axis chosen per frame when it is free
-/// ([`Resolved::free_tool_axis`]), and the line saying so; the targets unchanged otherwise.
-pub fn free_roll(
-    resolved: &Resolved,
-    targets: Vec<TcpTarget>,
-    strokes: &[Stroke],
-) -> (Vec<TcpTarget>, Option<String>) {
-    if !resolved.free_tool_axis {
-        return (targets, None);
+    )
+    .map_err(|e| match e {
+        PathError::Span(span) => anyhow::Error::new(span),
+        e @ PathError::TooFewPoses => anyhow::Error::new(crate::DataRejected(e.into())),
+    })?;
+    if let Some(none) = &path.no_stroke {
+        crate::announce::warn(&format!(
+            "{none}: the whole span is taken as one stroke (is the world's xy-plane the work surface? --lift-mm)"
+        ));
     }
-    let free = choose_roll(
-        &resolved.robot,
-        &resolved.cell,
-        &targets,
-        &stroke_ranges(strokes),
-        &resolved.config,
-        &FreeAxisConfig::default(),
-    );
-    let line = free.describe();
-    (free.targets, Some(line))
-}
-
-/// The strokes' ranges of targets.
-pub fn stroke_ranges(strokes: &[Stroke]) -> Vec<std::ops::Range<usize>> {
-    strokes.iter().map(|s| s.targets.clone()).collect()
+    Ok(path)
 }
 
 /// Why a failing check fails, in one line: a given time scale too fast for the arm names the

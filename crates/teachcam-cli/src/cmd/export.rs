@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use teachcam::io::{Output, OutputSet, check_outputs};
 use teachcam::robot::check::CheckReport;
+use teachcam::robot::checked::{CheckedPath, stroke_ranges};
 use teachcam::robot::kinematics::{Joints, Maker};
 use teachcam::robot::krl::{krl_name_problem, krl_program};
 use teachcam::robot::program::{ToolLoad, build_stroke_program, check_home, identifier};
@@ -12,10 +13,7 @@ use teachcam::robot::simplify::SimplifyConfig;
 use teachcam::robot::table::poses_csv;
 use teachcam::robot::urscript::{UrScriptConfig, urscript_name_problem, urscript_program};
 
-use super::check::{
-    CellArgs, CheckedPath, GapArgs, StrokeArgs, checked_path, resolve, stroke_ranges, strokes_line,
-    summary,
-};
+use super::check::{CellArgs, GapArgs, StrokeArgs, checked_path, resolve, strokes_line, summary};
 use crate::Rejected;
 
 /// The program dialects.
@@ -261,6 +259,7 @@ pub fn write_program(args: &Args) -> anyhow::Result<Written> {
         strokes,
         tool_axis,
         report,
+        ..
     } = checked_path(&resolved, &args.strokes)?;
     if let Some(line) = &tool_axis {
         crate::announce::say(line);

@@ -12,7 +12,7 @@ use teachcam::io::tool::read_tool;
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::report::{Absent, Header, InputFile, ReportInputs, build_report, summary_from_json};
 
-use super::check::{CellArgs, StrokeArgs, checked_path, resolve_trajectory, stroke_ranges};
+use super::check::{CellArgs, StrokeArgs, checked_path, resolve_trajectory};
 use crate::Rejected;
 use teachcam::report::joints::CheckedJoints;
 
@@ -378,9 +378,10 @@ fn checked_joints(
         Ok(path) => path,
         Err(e) => return Ok(Err(Absent(format!("the path cannot be checked: {e}")))),
     };
+    let strokes = path.target_ranges();
     Ok(Ok(CheckedJoints::new(
         path.report,
-        &stroke_ranges(&path.strokes),
+        &strokes,
         resolved.config.speed_fraction,
     )))
 }

@@ -11,13 +11,15 @@ use axum::response::{IntoResponse, Response};
 use serde_json::{Value, json};
 use teachcam::geometry::{Pose, parse_pose};
 use teachcam::report::smooth_for_review;
-use teachcam::robot::check::{CheckConfig, CheckReport, Suggestion, check_path, issue_ranges};
+use teachcam::robot::check::{CheckConfig, CheckReport, Suggestion, issue_ranges};
+use teachcam::robot::checked::{PathError, PathOptions, checked_path};
 use teachcam::robot::kinematics::models::KNOWN_ROBOTS;
 use teachcam::robot::kinematics::{Maker, Robot, link_points};
 use teachcam::robot::krl::{krl_name_problem, krl_program};
-use teachcam::robot::program::build_program;
+use teachcam::robot::program::build_stroke_program;
 use teachcam::robot::rapid::{RapidConfig, rapid_module};
 use teachcam::robot::simplify::SimplifyConfig;
+use teachcam::robot::strokes::StrokeConfig;
 use teachcam::robot::urscript::{UrScriptConfig, urscript_program};
 use teachcam::robot::{Cell, pose_text, tcp_targets};
 use teachcam::trajectory::Trajectory;
@@ -46,6 +48,18 @@ pub struct RobotQuery {
     cutoff_hz: Option<String>,
     /// `true`: write the program even when the check fails.
     force: Option<String>,
+    /// Start of the span checked, seconds of the take's time (as `export --from`).
+    from_s: Option<String>,
+    /// End of the span, seconds (`export --to`).
+    to_s: Option<String>,
+    /// A stroke ends where the tip rises this far off the work surface, mm (`--lift-mm`).
+    lift_mm: Option<String>,
+    /// A stroke ends where the tip pauses this long, seconds (`--pause-s`).
+    pause_s: Option<String>,
+    /// Speed under which the tip pauses, mm/s (`--pause-speed-mm-s`).
+    pause_speed_mm_s: Option<String>,
+    /// `true`: the rotation about the tool's axis is free (`--free-tool-axis`).
+    free_tool_axis: Option<String>,
     /// The token, when given in the query (checked by the guard).
     #[serde(rename = "token")]
     _token: Option<String>,
@@ -56,6 +70,14 @@ struct Checked {
     robot: Robot,
     cell: Cell,
     report: CheckReport,
+    /// The strokes as ranges of the report's frames.
+    frame_ranges: Vec<std::ops::Range<usize>>,
+    /// The strokes' frames (first, last) of the take.
+    strokes: Vec<(usize, usize)>,
+    /// The line saying the roll about the tool's axis was chosen, when it was.
+    tool_axis: Option<String>,
+    /// The line saying the span has no stroke (then checked whole), when it has none.
+    no_stroke: Option<String>,
     gaps: usize,
     cutoff_hz: f64,
     /// How the work object was chosen, said to the user.
@@ -117,6 +139,44 @@ fn pose_field(query: Option<&str>, field: &str) -> Result<Pose, ApiError> {
     parse_pose(text).map_err(|e| ApiError::bad_request(format!("{field} {text:?}: {e}")))
 }
 
+/// A number of the query: absent or empty is `None`; otherwise finite and, when `positive`,
+/// above zero.
+fn number(field: &str, text: Option<&str>, positive: bool) -> Result<Option<f64>, ApiError> {
+    let Some(text) = text.map(str::trim).filter(|t| !t.is_empty()) else {
+        return Ok(None);
+    };
+    text.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && (!positive || *v > 0.0))
+        .map(Some)
+        .ok_or_else(|| {
+            ApiError::bad_request(format!(
+                "{field} {text:?}: expected {}",
+                if positive {
+                    "a positive number"
+                } else {
+                    "a number"
+                }
+            ))
+        })
+}
+
+/// The span and strokes of the query, as `export`'s flags give them ([`PathOptions`]).
+fn path_options(query: &RobotQuery) -> Result<PathOptions, ApiError> {
+    let defaults = StrokeConfig::default();
+    Ok(PathOptions {
+        from_s: number("from_s", query.from_s.as_deref(), false)?,
+        to_s: number("to_s", query.to_s.as_deref(), false)?,
+        strokes: StrokeConfig {
+            lift_mm: number("lift_mm", query.lift_mm.as_deref(), true)?.unwrap_or(defaults.lift_mm),
+            pause_s: number("pause_s", query.pause_s.as_deref(), true)?.unwrap_or(defaults.pause_s),
+            pause_speed_mm_s: number("pause_speed_mm_s", query.pause_speed_mm_s.as_deref(), true)?
+                .unwrap_or(defaults.pause_speed_mm_s),
+        },
+        free_tool_axis: matches!(query.free_tool_axis.as_deref(), Some("true" | "1" | "on")),
+    })
+}
+
 fn check(studio: &Studio, query: &RobotQuery) -> Result<Checked, ApiError> {
     let name = query.robot.as_deref().unwrap_or("irb120");
     let robot = Robot::by_name(name).ok_or_else(|| {
@@ -152,31 +212,46 @@ fn check(studio: &Studio, query: &RobotQuery) -> Result<Checked, ApiError> {
         ));
     }
     let config = CheckConfig::default();
-    let mut report = check_path(&robot, &cell, &targets, &config);
+    let options = path_options(query)?;
+    let take_s = (
+        trajectory.samples.first().map_or(0.0, |s| s.time_s),
+        trajectory.samples.last().map_or(0.0, |s| s.time_s),
+    );
+    let check_on = |cell: &Cell| {
+        checked_path(&robot, cell, &targets, take_s, &options, &config).map_err(|e| match e {
+            PathError::Span(span) => ApiError::bad_request(span.to_string()),
+            e @ PathError::TooFewPoses => ApiError::unprocessable(e.to_string()),
+        })
+    };
+    let mut path = check_on(&cell)?;
     let mut placement = if automatic {
         Placement::Default
     } else {
         Placement::Given
     };
-    if automatic && !report.passes() {
-        let suggested = report.suggestions.iter().find_map(|s| match s {
+    if automatic && !path.report.passes() {
+        let suggested = path.report.suggestions.iter().find_map(|s| match s {
             Suggestion::UseWorkObject { base_from_wobj, .. } => Some(*base_from_wobj),
             Suggestion::SlowDown { .. } => None,
         });
         if let Some(base_from_wobj) = suggested {
             placement = Placement::Suggested {
-                failing: report.failing().count(),
-                frames: report.frames.len(),
+                failing: path.report.failing().count(),
+                frames: path.report.frames.len(),
             };
             cell.base_from_wobj = base_from_wobj;
-            report = check_path(&robot, &cell, &targets, &config);
+            path = check_on(&cell)?;
         }
     }
     Ok(Checked {
         gaps: trajectory.len() - targets.len(),
+        frame_ranges: path.frame_ranges(),
+        strokes: path.strokes.iter().map(|s| (s.first.0, s.last.0)).collect(),
+        tool_axis: path.tool_axis,
+        no_stroke: path.no_stroke,
+        report: path.report,
         robot,
         cell,
-        report,
         cutoff_hz,
         placement,
     })
@@ -202,9 +277,13 @@ pub async fn robot(
         robot,
         cell,
         report,
+        strokes,
+        tool_axis,
+        no_stroke,
         gaps,
         cutoff_hz,
         placement,
+        ..
     } = &checked;
     let limits: Vec<Value> = robot
         .limits
@@ -267,6 +346,9 @@ pub async fn robot(
         "suggestions": suggestions,
         "wobj": pose_text(&wobj),
         "placement": placement.json(),
+        "strokes": strokes.iter().map(|(first, last)| json!({"first_frame": first, "last_frame": last})).collect::<Vec<_>>(),
+        "tool_axis": tool_axis,
+        "no_stroke": no_stroke,
         "wobj_frame": {"position_mm": [wobj.translation.x, wobj.translation.y, wobj.translation.z], "quaternion": [q.w, q.i, q.j, q.k]},
         "tcp": pose_text(&cell.flange_from_tcp),
         "path": path,
@@ -342,11 +424,12 @@ pub async fn export(
         if let Some(problem) = krl_name_problem(PROGRAM_NAME) {
             return Err(ApiError::internal(problem));
         }
-        let program = build_program(
+        let program = build_stroke_program(
             PROGRAM_NAME,
             &checked.cell,
             &checked.report,
             &SimplifyConfig::default(),
+            &checked.frame_ranges,
         );
         let text = match dialect {
             Dialect::Rapid => rapid_module(&program, &RapidConfig::default()),

@@ -813,6 +813,12 @@ function robotQuery() {
     cutoff_hz: $("cutoff").value,
     token,
   });
+  // The strokes and span as `teachcam export` takes them (empty: its defaults).
+  for (const [name, id] of [["from_s", "span-from"], ["to_s", "span-to"], ["lift_mm", "lift-mm"], ["pause_s", "pause-s"]]) {
+    const value = $(id).value.trim();
+    if (value) params.set(name, value);
+  }
+  if ($("free-tool-axis").checked) params.set("free_tool_axis", "true");
   return params.toString();
 }
 
@@ -843,6 +849,13 @@ async function checkRobot() {
     $("robot-placement").textContent =
       placement.from === "given" ? `work object ${result.wobj} (given)` : `work object ${result.wobj}: ${placement.note}`;
     $("robot-placement").dataset.from = placement.from;
+    const strokes = result.strokes.map((st) => `${st.first_frame}-${st.last_frame}`).join(", ");
+    $("robot-strokes").textContent = [
+      `${result.strokes.length} stroke${result.strokes.length === 1 ? "" : "s"} (frames ${strokes})`,
+      result.no_stroke ? `${result.no_stroke}: checked whole` : "",
+      result.tool_axis ?? "",
+    ].filter((t) => t).join("; ");
+    $("robot-strokes").dataset.strokes = result.strokes.length;
     const suggestion = result.suggestions.find((s) => s.wobj);
     const use = $("use-suggestion");
     use.disabled = !suggestion;
@@ -863,7 +876,7 @@ $("use-suggestion").addEventListener("click", () => {
   $("wobj").value = $("use-suggestion").dataset.wobj;
   checkRobot();
 });
-for (const id of ["wobj", "tcp"]) $(id).addEventListener("change", () => setExports(null));
+for (const id of ["wobj", "tcp", "span-from", "span-to", "lift-mm", "pause-s", "free-tool-axis"]) $(id).addEventListener("change", () => setExports(null));
 // Choosing a robot checks the take on it (the arm appears in the 3-D view).
 $("robot-name").addEventListener("change", () => {
   setExports(null);
