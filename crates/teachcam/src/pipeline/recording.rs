@@ -686,11 +686,13 @@ pub fn learn_from_recording(
     Ok(learned)
 }
 
-/// Decoded pixels kept for the second pass at most (beyond: the recording is read again).
+/// Decoded pixels kept for the second pass at most, counted two bytes a sample whatever the
+/// depth (beyond: the recording is read again).
 const KEPT_BYTES: usize = 512 << 20;
 
 /// A source that hands on every set and keeps a copy of those of `keep` (decoded pixels are
-/// shared, not copied) until [`KEPT_BYTES`] of decoded pixels would be passed.
+/// shared, not copied; PNG frames are kept as their paths and cost nothing) until
+/// [`KEPT_BYTES`] would be passed.
 #[derive(Debug)]
 struct Keeping<'s, 'k> {
     inner: &'s mut dyn FrameSource,
