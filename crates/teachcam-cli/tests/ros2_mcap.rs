@@ -11,6 +11,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use teachcam::geometry::{FrameIndex, Point3, pose_from_parts};
 use teachcam::io::trajectory::{read_trajectory, write_trajectory};
 use teachcam::trajectory::{Sample, Status, ToolPose, Trajectory};
+use teachcam_testdata::cdr::decode_pose;
 
 #[path = "support/run.rs"]
 mod run;
@@ -80,63 +81,6 @@ fn export(trajectory: &Path, output: &Path, extra: &[&str]) -> Output {
     teachcam(&args)
 }
 
-/// The fields of a `PoseWithCovarianceStamped` read from its CDR bytes.
-struct DecodedPose {
-    sec: i32,
-    nanosec: u32,
-    frame_id: String,
-    position: [f64; 3],
-    covariance: [f64; 36],
-}
-
-/// A little-endian CDR reader for the test (alignment from the end of the 4-byte header).
-struct Cdr<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Cdr<'_> {
-    fn take(&mut self, size: usize) -> &[u8] {
-        self.at += (size - (self.at - 4) % size) % size;
-        let slice = &self.bytes[self.at..self.at + size];
-        self.at += size;
-        slice
-    }
-    fn u32(&mut self) -> u32 {
-        u32::from_le_bytes(self.take(4).try_into().unwrap())
-    }
-    fn f64(&mut self) -> f64 {
-        f64::from_le_bytes(self.take(8).try_into().unwrap())
-    }
-    fn string(&mut self) -> String {
-        let n = self.u32() as usize;
-        let s = String::from_utf8(self.bytes[self.at..self.at + n - 1].to_vec()).unwrap();
-        self.at += n;
-        s
-    }
-}
-
-fn decode_pose(bytes: &[u8]) -> DecodedPose {
-    assert_eq!(&bytes[..4], &[0, 1, 0, 0], "CDR little-endian header");
-    let mut r = Cdr { bytes, at: 4 };
-    let sec = r.u32() as i32;
-    let nanosec = r.u32();
-    let frame_id = r.string();
-    let position = [r.f64(), r.f64(), r.f64()];
-    for _ in 0..4 {
-        r.f64();
-    }
-    let covariance = std::array::from_fn(|_| r.f64());
-    assert_eq!(r.at, bytes.len(), "no bytes left over");
-    DecodedPose {
-        sec,
-        nanosec,
-        frame_id,
-        position,
-        covariance,
-    }
-}
-
 #[test]
 fn a_take_reads_back_with_one_pose_per_posed_frame() {
     let dir = tempfile::tempdir().unwrap();
@@ -175,8 +119,7 @@ fn a_take_reads_back_with_one_pose_per_posed_frame() {
         for (got, mm) in pose.position.iter().zip([tip.x, tip.y, tip.z]) {
             assert!((got - mm / 1000.0).abs() <= 1e-12, "{got} against {mm} mm");
         }
-        let stamp = f64::from(pose.sec) + f64::from(pose.nanosec) * 1e-9;
-        assert!((stamp - sample.time_s).abs() <= 1e-9);
+        assert!((pose.stamp_s() - sample.time_s).abs() <= 1e-9);
         assert_eq!(*log_time, (sample.time_s * 1e9).round() as u64);
         assert_eq!(pose.frame_id, "paint_booth");
         let std_m = sample.tip_std_mm.unwrap() / 1000.0;

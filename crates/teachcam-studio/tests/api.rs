@@ -795,3 +795,83 @@ async fn the_robot_check_takes_exports_span_strokes_and_free_tool_axis() {
     assert!(whole["tool_axis"].is_null(), "{whole}");
     studio.finish();
 }
+
+/// Issue 33: Record writes the take the studio tracked as `take.mcap` in the recording
+/// folder: read back here (the `mcap` crate, the poses decoded by the tests' own CDR reader)
+/// and by ROS 2's Python readers from the file's own schemas: one `/teachcam/tool` message
+/// per posed frame of the studio's take, at the tip in metres, stamped with its times, a
+/// status per frame, the rig's cameras on `/tf_static`.
+#[tokio::test(flavor = "multi_thread")]
+async fn record_writes_the_tracked_take_as_a_ros2_bag() {
+    let out = tempfile::tempdir().unwrap();
+    let studio = studio(out.path());
+    wait_for_frames(&studio, 0).await;
+    let (status, body) = json(&studio, post(&studio, "/api/record", "")).await;
+    assert_eq!(status, StatusCode::OK, "{body}");
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let (status, body) = json(&studio, post(&studio, "/api/stop", "")).await;
+    assert_eq!(status, StatusCode::OK, "{body}");
+    let folder = out.path().join("take-001");
+    let bag = folder.join("take.mcap");
+    assert_eq!(body["mcap"], bag.display().to_string(), "{body}");
+    // The take the studio reports (review, robot check): the frames tracked while recording.
+    let (take, _) = teachcam_studio::server::review::take(&studio).unwrap();
+    studio.finish();
+    let posed: Vec<_> = take.samples.iter().filter(|s| s.pose.is_some()).collect();
+    assert!(posed.len() >= 30, "{} posed frames in 2 s", posed.len());
+    assert_eq!(body["tool_messages"], posed.len(), "{body}");
+
+    let bytes = std::fs::read(&bag).unwrap();
+    eprintln!(
+        "take.mcap: {} bytes for {} frames",
+        bytes.len(),
+        take.samples.len()
+    );
+    let mut tool = Vec::new();
+    let mut counts = std::collections::BTreeMap::new();
+    for message in mcap::MessageStream::new(&bytes).unwrap() {
+        let message = message.unwrap();
+        *counts.entry(message.channel.topic.clone()).or_insert(0) += 1;
+        if message.channel.topic == "/teachcam/tool" {
+            let pose = teachcam_testdata::cdr::decode_pose(&message.data);
+            assert_eq!(message.log_time, (pose.stamp_s() * 1e9).round() as u64);
+            tool.push(pose);
+        }
+    }
+    assert_eq!(tool.len(), posed.len(), "{counts:?}");
+    assert_eq!(counts["/teachcam/status"], take.samples.len(), "{counts:?}");
+    assert_eq!(counts["/tf_static"], 1, "{counts:?}");
+    for (sample, pose) in posed.iter().zip(&tool) {
+        let tip = sample.pose.unwrap().tip_in_world;
+        for (got, mm) in pose.position.iter().zip([tip.x, tip.y, tip.z]) {
+            assert!(
+                (got - mm / 1000.0).abs() <= 1e-12,
+                "{got} m against {mm} mm"
+            );
+        }
+        assert!((pose.stamp_s() - sample.time_s).abs() <= 1e-9);
+        assert_eq!(pose.frame_id, "world");
+    }
+    // The tool moves (the simulated stroke), in metres: tens of millimetres, not metres.
+    let xs: Vec<f64> = tool.iter().map(|p| p.position[0]).collect();
+    let span =
+        xs.iter().copied().fold(f64::MIN, f64::max) - xs.iter().copied().fold(f64::MAX, f64::min);
+    assert!(span > 0.005 && span < 1.0, "x spans {span} m");
+
+    // ROS 2's readers, against the studio's take written as a trajectory CSV.
+    let csv = out.path().join("take.csv");
+    teachcam::io::trajectory::write_trajectory(&csv, &take).unwrap();
+    let args: Vec<std::ffi::OsString> =
+        vec![bag.into(), csv.into(), "--cameras".into(), "3".into()];
+    let test = "record_writes_the_tracked_take_as_a_ros2_bag";
+    if let Some(result) =
+        teachcam_testdata::ros2_script(test, "mcap_ros2", "ros2/read_mcap.py", &args)
+    {
+        let summary = result.unwrap_or_else(|e| panic!("the ROS 2 readers refuse the take: {e}"));
+        eprintln!("{test}: {summary}");
+        assert!(
+            summary.contains(&format!("\"tool_messages\": {}", posed.len())),
+            "{summary}"
+        );
+    }
+}

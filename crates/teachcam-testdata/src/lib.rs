@@ -6,6 +6,7 @@
 //! test says it was skipped and why ([`skipped`]).
 
 pub mod browser;
+pub mod cdr;
 
 use std::path::PathBuf;
 

@@ -3,8 +3,8 @@
 use anyhow::{Context, bail};
 use teachcam::io::trajectory::read_trajectory;
 use teachcam::io::{Output, check_outputs};
-use teachcam::ros2::bag::{Take, mcap_bytes};
-use teachcam::ros2::take::{Frames, camera_transforms, frame_messages, joint_trajectory};
+use teachcam::ros2::bag::mcap_bytes;
+use teachcam::ros2::take::{Frames, joint_trajectory, tracked_take};
 
 use super::check::{checked_path, resolve, summary};
 use super::export::Args;
@@ -44,21 +44,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     trajectory
         .samples
         .sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
-    let messages = trajectory
-        .samples
-        .iter()
-        .map(|s| frame_messages(s, None, &frames))
-        .collect::<Result<Vec<_>, _>>()
-        .with_context(|| args.trajectory.display().to_string())
-        .rejected()?;
-    let cameras = match &args.rig {
-        Some(path) => {
-            let rig = crate::load::rig(path)?;
-            let stamp = messages.first().map(|m| m.stamp).unwrap_or_default();
-            Some(camera_transforms(&rig, &frames, stamp))
-        }
-        None => None,
-    };
+    let rig = args.rig.as_deref().map(crate::load::rig).transpose()?;
+    let mut take = tracked_take(
+        trajectory.samples.iter().map(|s| (s, None)),
+        rig.as_ref(),
+        &frames,
+    )
+    .with_context(|| args.trajectory.display().to_string())
+    .rejected()?;
     let joints = if args.cell.robot.is_some() {
         let resolved = resolve(&args.trajectory, &args.cell)?;
         // The joint path `check --joints-out` writes: the same strokes and trimming.
@@ -92,14 +85,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     } else {
         None
     };
-    let posed = messages.iter().filter(|m| m.tool.is_some()).count();
-    let frame_count = messages.len();
+    let posed = take.frames.iter().filter(|m| m.tool.is_some()).count();
+    let frame_count = take.frames.len();
     let points = joints.as_ref().map(|j| j.points.len());
-    let take = Take {
-        frames: messages,
-        cameras,
-        joint_trajectory: joints,
-    };
+    take.joint_trajectory = joints;
     let bytes = mcap_bytes(&take)?;
     teachcam::io::write_atomically(&args.output, &bytes)?;
     let mut what = format!("{frame_count} frames, {posed} tool poses");

@@ -8,7 +8,7 @@
 //! | `GET /api/scene` | the rig's cameras (frusta), the tool model, the work object frame (none of them for a view-only studio) |
 //! | `GET /api/live` (WebSocket) | the newest tracked frame, binary ([`super::preview`]) |
 //! | `POST /api/controls` | `{"threshold": N \| "auto", "exposure": X}` |
-//! | `POST /api/record`, `POST /api/stop` | a recording folder into the output folder |
+//! | `POST /api/record`, `POST /api/stop` | a recording folder into the output folder, with the tracked take as `take.mcap` (ROS 2 bag) |
 //! | `GET /api/review?cutoff_hz=X` | `{frames, cutoff_hz, figures}`: the take's review figures at that cut-off |
 //! | `GET /api/robot?robot=&wobj=&tcp=&cutoff_hz=` | the take checked on a robot, joint path |
 //! | `GET /api/export/{rapid\|krl\|krl-dat\|urscript}?...` | the robot program, as a download |
@@ -377,6 +377,8 @@ async fn stop(State(studio): State<Studio>) -> Result<axum::Json<Value>, ApiErro
         "folder": written.folder.display().to_string(),
         "frames": written.frames,
         "dropped": written.dropped,
+        "mcap": written.mcap.display().to_string(),
+        "tool_messages": written.tool_messages,
     })))
 }
 

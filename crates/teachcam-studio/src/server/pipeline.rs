@@ -331,7 +331,11 @@ fn track(
             live.tick(now);
             live.dropped = stats.dropped_sets;
             live.error = None;
-            live.status = Some((frame.status().name().to_string(), frame.reason()));
+            let reason = frame.reason();
+            if let Some(recorder) = live.recorder.as_mut() {
+                recorder.track(frame.sample, reason.clone());
+            }
+            live.status = Some((frame.status().name().to_string(), reason));
             live.cameras = rig
                 .iter()
                 .map(|(_, camera)| CameraCounts {

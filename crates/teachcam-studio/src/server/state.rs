@@ -60,6 +60,21 @@ pub struct CameraCounts {
     pub blobs: usize,
 }
 
+/// The frames the source dropped between the last one tracked (`(frame, time_s)`) and `next`,
+/// as explicit gaps one frame period apart.
+pub fn gaps_between(
+    (last_frame, last_time_s): (usize, f64),
+    next: FrameIndex,
+    fps: f64,
+) -> impl Iterator<Item = Sample> {
+    (last_frame + 1..next.0).map(move |missing| {
+        Sample::gap(
+            FrameIndex(missing),
+            last_time_s + (missing - last_frame) as f64 / fps,
+        )
+    })
+}
+
 /// The take under review: the samples of the last recording, of the last whole pass of a
 /// recording played, or the last [`MAX_TAKE_SAMPLES`] of a live source.
 #[derive(Debug, Clone, Default)]
@@ -83,11 +98,8 @@ impl Take {
                 // A new pass of a recording or a restarted source: a new take.
                 self.samples.clear();
             } else {
-                for missing in last_frame + 1..sample.frame.0 {
-                    let time_s = last_time_s + (missing - last_frame) as f64 / fps;
-                    self.samples
-                        .push_back(Sample::gap(FrameIndex(missing), time_s));
-                }
+                self.samples
+                    .extend(gaps_between((last_frame, last_time_s), sample.frame, fps));
             }
         }
         self.samples.push_back(sample);

@@ -288,7 +288,7 @@ $("record").addEventListener("click", async () => {
   try {
     if (studio.status?.recording) {
       const done = await post("/api/stop");
-      $("record-state").textContent = `wrote ${done.folder}: ${done.frames} frames (${done.dropped} sets dropped)`;
+      $("record-state").textContent = `wrote ${done.folder}: ${done.frames} frames (${done.dropped} sets dropped), the tracked take as take.mcap (${done.tool_messages} poses, ROS 2)`;
     } else {
       const started = await post("/api/record");
       $("record-state").textContent = `recording into ${started.folder}`;

@@ -12,6 +12,7 @@ use crate::robot::check::CheckReport;
 use crate::robot::kinematics::Maker;
 use crate::trajectory::{Sample, Status, ToolPose};
 
+use super::bag::Take;
 use super::msg::{
     DiagnosticArray, DiagnosticStatus, Header, JointTrajectory, JointTrajectoryPoint, Level,
     PoseWithCovarianceStamped, RosPose, TfMessage, Time, TransformStamped,
@@ -70,6 +71,32 @@ pub enum TakeError {
         /// The frame.
         frame: usize,
     },
+}
+
+/// The take of tracked frames, as `export mcap` and the studio's Record write it: each
+/// frame's messages stamped with its `time_s` (`reason`: its status reason, where the caller
+/// has it), and, with a rig, its cameras on `/tf_static` stamped at the first frame's time.
+///
+/// # Errors
+/// [`TakeError`] naming the first frame whose time or pose cannot be written.
+pub fn tracked_take<'a>(
+    samples: impl IntoIterator<Item = (&'a Sample, Option<&'a str>)>,
+    rig: Option<&Rig>,
+    frames: &Frames,
+) -> Result<Take, TakeError> {
+    let messages = samples
+        .into_iter()
+        .map(|(sample, reason)| frame_messages(sample, reason, frames))
+        .collect::<Result<Vec<_>, _>>()?;
+    let cameras = rig.map(|rig| {
+        let stamp = messages.first().map(|m| m.stamp).unwrap_or_default();
+        camera_transforms(rig, frames, stamp)
+    });
+    Ok(Take {
+        frames: messages,
+        cameras,
+        joint_trajectory: None,
+    })
 }
 
 /// The messages of `sample`; `reason` is the frame's status reason where the caller has it
