@@ -41,6 +41,7 @@ pub mod components;
 pub mod learn;
 pub mod measure;
 pub mod repeatability;
+pub mod sketch;
 pub mod sphere;
 pub mod sets;
 pub mod threshold;
@@ -322,6 +323,16 @@ pub enum DetectError {
         /// Values in the buffer.
         len: usize,
     },
+    /// A sketched frame asked for a detection that may read pixels it did not keep.
+    #[error(
+        "internal: a frame sketched above level {kept_level} was asked for a detection at level {level} or with a wider window"
+    )]
+    Sketch {
+        /// The detection's threshold.
+        level: u32,
+        /// The level the sketch kept every pixel above.
+        kept_level: u32,
+    },
 }
 
 /// Blobs of an 8- or 16-bit grey image, in raster order of their first pixel.
@@ -361,7 +372,17 @@ pub fn detect_view<P: Intensity>(
     image: GrayView<'_, P>,
     cfg: &DetectConfig,
 ) -> Result<Vec<Blob>, DetectError> {
-    let regions = region_blobs(image, cfg, cfg.min_roundness)?;
+    let regions = region_blobs(image, None, cfg, cfg.min_roundness)?;
+    Ok(gated(&regions, cfg.min_roundness))
+}
+
+/// [`detect_view`] with the image's background given (a [`sketch::Sketch`]'s).
+pub(crate) fn detect_view_with<P: Intensity>(
+    image: GrayView<'_, P>,
+    background: &Background,
+    cfg: &DetectConfig,
+) -> Result<Vec<Blob>, DetectError> {
+    let regions = region_blobs(image, Some(background), cfg, cfg.min_roundness)?;
     Ok(gated(&regions, cfg.min_roundness))
 }
 
@@ -432,14 +453,27 @@ pub fn detect_choices<P: Intensity>(
 ) -> Result<RoundnessChoices, DetectError> {
     Ok(RoundnessChoices {
         floor: cfg.min_roundness,
-        regions: region_blobs(image, cfg, f64::INFINITY)?,
+        regions: region_blobs(image, None, cfg, f64::INFINITY)?,
+    })
+}
+
+/// [`detect_choices`] with the image's background given (a [`sketch::Sketch`]'s).
+pub(crate) fn detect_choices_with<P: Intensity>(
+    image: GrayView<'_, P>,
+    background: &Background,
+    cfg: &DetectConfig,
+) -> Result<RoundnessChoices, DetectError> {
+    Ok(RoundnessChoices {
+        floor: cfg.min_roundness,
+        regions: region_blobs(image, Some(background), cfg, f64::INFINITY)?,
     })
 }
 
 /// Each kept region's blob, and its split parts where the whole blob is missing or less round
-/// than `split_below`.
+/// than `split_below`; the background estimated from `image` unless given.
 fn region_blobs<P: Intensity>(
     image: GrayView<'_, P>,
+    background: Option<&Background>,
     cfg: &DetectConfig,
     split_below: f64,
 ) -> Result<Vec<RegionBlobs>, DetectError> {
@@ -453,7 +487,9 @@ fn region_blobs<P: Intensity>(
     if image.pixels.is_empty() {
         return Ok(Vec::new());
     }
-    let background = estimate_background(image);
+    let background = background
+        .copied()
+        .unwrap_or_else(|| estimate_background(image));
     let threshold = match cfg.threshold {
         Threshold::Auto => background.auto_threshold::<P>(),
         Threshold::Fixed(level) => level,
@@ -468,7 +504,7 @@ fn region_blobs<P: Intensity>(
             threshold,
         },
     )?;
-    let margin_px = cfg.window_margin_px.clamp(0.0, 64.0).ceil() as u32 + 1;
+    let margin_px = sketch::window_growth_px(cfg);
     let windows = measure::exclusive_windows(image, &regions, margin_px);
     let mut kept = Vec::with_capacity(regions.len());
     for (region, window) in regions.iter().zip(windows) {

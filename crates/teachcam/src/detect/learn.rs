@@ -30,7 +30,10 @@
 //! With fewer than [`MIN_BLOBS`] blobs in the sample (an empty scene), nothing is learned and
 //! the configured limits stay, said in the reason.
 
-use super::{Blob, DetectConfig, DetectError, GrayView, Intensity, Threshold, estimate_background};
+use super::{
+    Background, Blob, DetectConfig, DetectError, GrayView, Intensity, Threshold,
+    estimate_background,
+};
 
 /// Blobs less round than this (two touching equal discs score 0.5) are not markers and do not
 /// weigh in the markers' contrast: streaks, lit edges.
@@ -61,18 +64,34 @@ impl FrameSample {
         image: GrayView<'_, P>,
         base: &DetectConfig,
     ) -> Result<Self, DetectError> {
-        let permissive = DetectConfig {
+        Self::detect_with(image, &estimate_background(image), base)
+    }
+
+    /// [`Self::detect`] with the image's background given (a [`super::sketch::Sketch`]'s).
+    ///
+    /// # Errors
+    /// As [`super::detect_view`].
+    pub(crate) fn detect_with<P: Intensity>(
+        image: GrayView<'_, P>,
+        background: &Background,
+        base: &DetectConfig,
+    ) -> Result<Self, DetectError> {
+        Ok(Self {
+            background: background.level,
+            blobs: super::detect_view_with(image, background, &Self::permissive(base))?,
+        })
+    }
+
+    /// `base` with the automatic threshold, no smallest size and no roundness floor.
+    #[must_use]
+    pub fn permissive(base: &DetectConfig) -> DetectConfig {
+        DetectConfig {
             threshold: Threshold::Auto,
             min_area_px: 1,
             min_roundness: 0.0,
             sphere: None,
             ..base.clone()
-        };
-        let background = estimate_background(image).level;
-        Ok(Self {
-            background,
-            blobs: super::detect_view(image, &permissive)?,
-        })
+        }
     }
 }
 

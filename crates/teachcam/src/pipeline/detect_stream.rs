@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use super::{CameraSetup, PipelineError};
 use crate::detect::learn::FrameSample;
+use crate::detect::sketch::Sketch;
 use crate::detect::{
     Blob, CameraDetections, DetectConfig, DetectError, DetectedSet, GrayView, RoundnessChoices,
     detect, detect_choices,
@@ -26,12 +27,28 @@ pub trait FrameDetections: Sized + Send {
     fn detect_frame(image: &GrayFrame, config: &DetectConfig) -> Result<Self, DetectError>;
 }
 
+/// What can be detected from a frame's [`Sketch`] as from the frame itself.
+pub trait FromSketch: FrameDetections {
+    /// What [`FrameDetections::detect_frame`] gives on the sketched frame.
+    ///
+    /// # Errors
+    /// As [`FrameDetections::detect_frame`]; [`DetectError::Sketch`] when `config` reads
+    /// pixels the sketch did not keep.
+    fn from_sketch(sketch: &Sketch, config: &DetectConfig) -> Result<Self, DetectError>;
+}
+
 impl FrameDetections for Vec<Blob> {
     fn detect_frame(image: &GrayFrame, config: &DetectConfig) -> Result<Self, DetectError> {
         match image {
             GrayFrame::Eight(i) => detect(i, config),
             GrayFrame::Sixteen(i) => detect(i, config),
         }
+    }
+}
+
+impl FromSketch for Vec<Blob> {
+    fn from_sketch(sketch: &Sketch, config: &DetectConfig) -> Result<Self, DetectError> {
+        sketch.detect(config)
     }
 }
 
@@ -44,12 +61,30 @@ impl FrameDetections for FrameSample {
     }
 }
 
+impl FromSketch for FrameSample {
+    fn from_sketch(sketch: &Sketch, config: &DetectConfig) -> Result<Self, DetectError> {
+        sketch.sample(config)
+    }
+}
+
 impl FrameDetections for RoundnessChoices {
     fn detect_frame(image: &GrayFrame, config: &DetectConfig) -> Result<Self, DetectError> {
         match image {
             GrayFrame::Eight(i) => detect_choices(GrayView::new(i), config),
             GrayFrame::Sixteen(i) => detect_choices(GrayView::new(i), config),
         }
+    }
+}
+
+impl FromSketch for RoundnessChoices {
+    fn from_sketch(sketch: &Sketch, config: &DetectConfig) -> Result<Self, DetectError> {
+        sketch.detect_choices(config)
+    }
+}
+
+impl FrameDetections for Sketch {
+    fn detect_frame(image: &GrayFrame, config: &DetectConfig) -> Result<Self, DetectError> {
+        Ok(Sketch::of(image, config))
     }
 }
 

@@ -11,10 +11,16 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::path::Path;
 
 use super::rules::{CameraOut, FrameInput, cameras_out, frame_inputs};
+use rayon::prelude::*;
+
+use super::detect_stream::FromSketch;
 use super::{CameraSetup, DetectStream, FrameDetections, PipelineError};
 use crate::camera::Rig;
 use crate::detect::learn::{CameraLimits, FrameSample, learn_limits};
-use crate::detect::{Blob, CenterMethod, DetectConfig, DetectedSet, RoundnessChoices, Threshold};
+use crate::detect::sketch::Sketch;
+use crate::detect::{
+    Blob, CameraDetections, CenterMethod, DetectConfig, DetectedSet, RoundnessChoices, Threshold,
+};
 use crate::geometry::CameraId;
 use crate::io::detections::Detections;
 use crate::metrology::frame::Typical;
@@ -338,15 +344,8 @@ pub fn learn_camera_limits(
     setups: &mut [CameraSetup],
     min_area_given: bool,
 ) -> Result<(Vec<(String, CameraLimits)>, usize), PipelineError> {
-    let fixed = setups
-        .iter()
-        .all(|s| matches!(s.detect.threshold, Threshold::Fixed(_)));
-    if fixed && min_area_given {
-        let limits = setups
-            .iter()
-            .map(|s| (s.name.clone(), learn_limits(&[], &s.detect, true)))
-            .collect();
-        return Ok((limits, 0));
+    if nothing_to_learn(setups, min_area_given) {
+        return Ok(limits_from_samples(&[], setups, min_area_given));
     }
     let keep: BTreeSet<usize> = sampled_sets(source.len_hint(), LIMIT_SAMPLE_FRAMES)
         .into_iter()
@@ -357,12 +356,29 @@ pub fn learn_camera_limits(
     };
     let samples: DetectedRecording<FrameSample> =
         detect_recording(&mut sampled, setups.to_vec(), &|| {})?;
+    Ok(limits_from_samples(&samples.sets, setups, min_area_given))
+}
+
+/// True when every camera's threshold is fixed and the smallest blob given: no sample needed.
+fn nothing_to_learn(setups: &[CameraSetup], min_area_given: bool) -> bool {
+    min_area_given
+        && setups
+            .iter()
+            .all(|s| matches!(s.detect.threshold, Threshold::Fixed(_)))
+}
+
+/// Each camera's limits learned from the permissive detections of the sampled `sets` (none:
+/// the limits as configured), set in `setups`; with the number of sets.
+fn limits_from_samples(
+    sets: &[DetectedSet<FrameSample>],
+    setups: &mut [CameraSetup],
+    min_area_given: bool,
+) -> (Vec<(String, CameraLimits)>, usize) {
     let limits = setups
         .iter_mut()
         .enumerate()
         .map(|(i, setup)| {
-            let frames: Vec<FrameSample> = samples
-                .sets
+            let frames: Vec<FrameSample> = sets
                 .iter()
                 .filter_map(|set| set.cameras.get(i)?.as_ref())
                 .map(|c| c.blobs.clone())
@@ -372,40 +388,201 @@ pub fn learn_camera_limits(
             (setup.name.clone(), limits)
         })
         .collect();
-    Ok((limits, samples.sets.len()))
+    (limits, sets.len())
+}
+
+/// Pixels the sketches of one recording may keep at most ([`Sketch`]; beyond, the recording
+/// is read once for the sample and once more for the detection).
+const SKETCH_BYTES: usize = 512 << 20;
+
+/// Where [`detect_learned`] reads the frames of each of its passes from.
+enum Frames<'a> {
+    /// Every frame sketched in one read of the recording.
+    Sketched(DetectedRecording<Sketch>),
+    /// The recording read again for each pass.
+    Reread {
+        /// The recording folder.
+        root: &'a Path,
+        /// `--fps`.
+        fps: Option<f64>,
+    },
+}
+
+impl<'a> Frames<'a> {
+    /// Reads the recording `root` once, sketching every frame for `setups` (`progress` after
+    /// each set), or, when the sketches would keep more than `budget` bytes, leaves it to be
+    /// read again for each pass.
+    fn read(
+        root: &'a Path,
+        fps: Option<f64>,
+        setups: &[CameraSetup],
+        budget: usize,
+        progress: &dyn Fn(),
+    ) -> Result<Self, PipelineError> {
+        let mut source = FolderSource::open(root, fps)?;
+        let len_hint = source.len_hint();
+        let mut stream = DetectStream::<Sketch>::detecting(&mut source, setups.to_vec())?;
+        let cameras = stream.camera_names();
+        let rate = stream.fps();
+        let mut sets = Vec::new();
+        let mut bytes = 0;
+        for set in &mut stream {
+            let set = set?;
+            bytes += set
+                .cameras
+                .iter()
+                .flatten()
+                .map(|c| c.blobs.bytes())
+                .sum::<usize>();
+            if bytes > budget {
+                return Ok(Self::Reread { root, fps });
+            }
+            sets.push(set);
+            progress();
+        }
+        Ok(Self::Sketched(DetectedRecording {
+            cameras,
+            fps: rate,
+            sets,
+            len_hint,
+        }))
+    }
+
+    /// Every set detected with `setups`.
+    fn detect<B: FromSketch>(
+        &self,
+        setups: Vec<CameraSetup>,
+        progress: &dyn Fn(),
+    ) -> Result<DetectedRecording<B>, PipelineError> {
+        match self {
+            Self::Sketched(recording) => Ok(DetectedRecording {
+                cameras: recording.cameras.clone(),
+                fps: recording.fps,
+                sets: from_sketches(recording.sets.iter(), &setups)?,
+                len_hint: recording.len_hint,
+            }),
+            Self::Reread { root, fps } => {
+                let mut source = FolderSource::open(root, *fps)?;
+                detect_recording(&mut source, setups, progress)
+            }
+        }
+    }
+
+    /// [`learn_camera_limits`] on these frames.
+    fn camera_limits(
+        &self,
+        setups: &mut [CameraSetup],
+        min_area_given: bool,
+    ) -> Result<(Vec<(String, CameraLimits)>, usize), PipelineError> {
+        match self {
+            Self::Sketched(recording) if !nothing_to_learn(setups, min_area_given) => {
+                let keep: BTreeSet<usize> = sampled_sets(recording.len_hint, LIMIT_SAMPLE_FRAMES)
+                    .into_iter()
+                    .collect();
+                let sampled = recording.sets.iter().filter(|s| keep.contains(&s.index));
+                let samples: Vec<DetectedSet<FrameSample>> = from_sketches(sampled, setups)?;
+                Ok(limits_from_samples(&samples, setups, min_area_given))
+            }
+            Self::Sketched(_) => Ok(limits_from_samples(&[], setups, min_area_given)),
+            Self::Reread { root, fps } => {
+                let mut source = FolderSource::open(root, *fps)?;
+                learn_camera_limits(&mut source, setups, min_area_given)
+            }
+        }
+    }
+}
+
+/// `sets` detected from their sketches with `setups` (in the sets' camera order), in
+/// parallel; the first set's error in order where any fails.
+fn from_sketches<'s, B: FromSketch>(
+    sets: impl Iterator<Item = &'s DetectedSet<Sketch>>,
+    setups: &[CameraSetup],
+) -> Result<Vec<DetectedSet<B>>, PipelineError> {
+    let sets: Vec<&DetectedSet<Sketch>> = sets.collect();
+    let detected: Vec<Result<DetectedSet<B>, PipelineError>> =
+        sets.par_iter()
+            .map(|set| {
+                let cameras =
+                    set.cameras
+                        .iter()
+                        .zip(setups)
+                        .map(|(camera, setup)| {
+                            camera
+                                .as_ref()
+                                .map(|c| {
+                                    let blobs = B::from_sketch(&c.blobs, &setup.detect).map_err(
+                                        |source| PipelineError::Detect {
+                                            camera: c.camera.clone(),
+                                            frame: c.frame,
+                                            source,
+                                        },
+                                    )?;
+                                    Ok(CameraDetections {
+                                        camera: c.camera.clone(),
+                                        frame: c.frame,
+                                        time_s: c.time_s,
+                                        blobs,
+                                    })
+                                })
+                                .transpose()
+                        })
+                        .collect::<Result<_, PipelineError>>()?;
+                Ok(DetectedSet {
+                    index: set.index,
+                    time_s: set.time_s,
+                    exposed_at: set.exposed_at,
+                    cameras,
+                })
+            })
+            .collect();
+    detected.into_iter().collect()
 }
 
 /// Detects every frame of the recording folder `root` with `setups` and limits measured from
 /// the recording itself: each camera's threshold and smallest blob from a sample
 /// ([`learn_camera_limits`]), then the roundness floor from the blobs of
 /// [`ROUNDNESS_SAMPLE_FRAMES`] sets detected at those limits with the lowest floor
-/// ([`roundness_gate`]), every frame decoded once more. What `given` (and a fixed threshold in
-/// `setups`) fixes stays. `detect`, `track`, `calibrate refine` and `doctor` all detect so.
+/// ([`roundness_gate`]). The recording is read once: every frame is kept as a [`Sketch`] of
+/// what a detection can read, and detected from it at the learned limits (the same blobs as
+/// from the frame); a recording whose sketches would pass [`SKETCH_BYTES`] is read again
+/// for each pass instead. What `given` (and a fixed threshold in `setups`) fixes stays.
+/// `detect`, `track`, `calibrate refine` and `doctor` all detect so.
 ///
 /// # Errors
 /// [`PipelineError`] as [`detect_recording`].
 pub fn detect_learned(
     root: &Path,
     fps: Option<f64>,
-    mut setups: Vec<CameraSetup>,
+    setups: Vec<CameraSetup>,
     given: LimitsGiven,
     progress: &dyn Fn(),
 ) -> Result<(DetectedRecording, DetectLimits), PipelineError> {
-    let mut source = FolderSource::open(root, fps)?;
-    let (cameras, sampled) = learn_camera_limits(&mut source, &mut setups, given.min_area_px)?;
+    detect_learned_within(root, fps, setups, given, SKETCH_BYTES, progress)
+}
+
+/// [`detect_learned`] with the sketches' budget in bytes.
+fn detect_learned_within(
+    root: &Path,
+    fps: Option<f64>,
+    mut setups: Vec<CameraSetup>,
+    given: LimitsGiven,
+    budget: usize,
+    progress: &dyn Fn(),
+) -> Result<(DetectedRecording, DetectLimits), PipelineError> {
+    let frames = Frames::read(root, fps, &setups, budget, progress)?;
+    let (cameras, sampled) = frames.camera_limits(&mut setups, given.min_area_px)?;
     let floor = given.min_roundness.unwrap_or(ROUNDNESS_FLOOR);
     for setup in &mut setups {
         setup.detect.min_roundness = floor;
     }
-    let mut source = FolderSource::open(root, fps)?;
     let (recording, min_roundness) = match given.min_roundness {
         Some(_) => {
             let gate = roundness_gate(&[], given.min_roundness);
-            (detect_recording(&mut source, setups, progress)?, gate)
+            (frames.detect(setups, progress)?, gate)
         }
         None => {
             let choices: DetectedRecording<RoundnessChoices> =
-                detect_recording(&mut source, setups.clone(), progress)?;
+                frames.detect(setups.clone(), progress)?;
             let sample: BTreeSet<usize> = sampled_sets(choices.len_hint, ROUNDNESS_SAMPLE_FRAMES)
                 .into_iter()
                 .collect();
@@ -414,11 +591,10 @@ pub fn detect_learned(
                 Some(detected) => detected,
                 // A gate below the floor (none is measured so): detect again with it.
                 None => {
-                    let mut source = FolderSource::open(root, fps)?;
                     for setup in &mut setups {
                         setup.detect.min_roundness = gate.value;
                     }
-                    detect_recording(&mut source, setups, progress)?
+                    frames.detect(setups, progress)?
                 }
             };
             (detected, gate)
@@ -827,5 +1003,65 @@ impl FrameSource for Sampled<'_> {
 
     fn stats(&self) -> SourceStats {
         self.inner.stats()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::{Scenario, build_scene, write_scene};
+
+    /// The same detections and limits whether the frames were sketched in one read or the
+    /// recording read again for each pass (sketches over budget): the occluded scene, whose
+    /// roundness gate and limits are learned, and with every limit given.
+    #[test]
+    fn a_recording_over_the_sketch_budget_is_read_again_to_the_same_detections() {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let mut scene = build_scene(Scenario::Occluded, 5);
+        scene.truth.samples.truncate(40);
+        write_scene(&scene, dir.path(), 5, &|| {}).expect("the scene written");
+        let tool = &scene.tool;
+        let options = DetectOptions::default();
+        let setups: Vec<CameraSetup> = scene
+            .rig
+            .cameras
+            .iter()
+            .map(|camera| CameraSetup {
+                name: camera.name.clone(),
+                detect: options.config(camera, tool, ROUNDNESS_FLOOR),
+                size: None,
+            })
+            .collect();
+        let fixed: Vec<CameraSetup> = setups
+            .iter()
+            .cloned()
+            .map(|mut s| {
+                s.detect.threshold = Threshold::Fixed(60);
+                s
+            })
+            .collect();
+        let all_given = LimitsGiven {
+            min_area_px: true,
+            min_roundness: Some(0.6),
+        };
+        for (setups, given) in [(setups, LimitsGiven::default()), (fixed, all_given)] {
+            let run = |budget| {
+                detect_learned_within(dir.path(), None, setups.clone(), given, budget, &|| {})
+                    .expect("the recording detected")
+            };
+            let (sketched, sketched_limits) = run(SKETCH_BYTES);
+            let (reread, reread_limits) = run(0);
+            assert_eq!(sketched.sets.len(), 40);
+            assert!(
+                sketched.sets.iter().any(|s| s
+                    .cameras
+                    .iter()
+                    .flatten()
+                    .any(|c| !c.blobs.is_empty()))
+            );
+            assert_eq!(sketched.sets, reread.sets);
+            assert_eq!(sketched.cameras, reread.cameras);
+            assert_eq!(sketched_limits, reread_limits);
+        }
     }
 }
