@@ -276,12 +276,19 @@ pub fn detect_for_tracking(
     let source = FolderSource::open(root, options.fps)?;
     let floor = min_roundness.unwrap_or(ROUNDNESS_FLOOR);
     let (setups, missing_cameras) = options.rig_setups(rig, tool, source.cameras(), floor)?;
-    drop(source);
     let given = LimitsGiven {
         min_area_px: false,
         min_roundness,
     };
-    let (recording, limits) = detect_learned(root, options.fps, setups, given, progress)?;
+    let (recording, limits) = detect_learned_within(
+        source,
+        root,
+        options.fps,
+        setups,
+        given,
+        SKETCH_BYTES,
+        progress,
+    )?;
     Ok(DetectedForTracking {
         recording,
         min_roundness: limits.min_roundness.clone(),
@@ -409,17 +416,17 @@ enum Frames<'a> {
 }
 
 impl<'a> Frames<'a> {
-    /// Reads the recording `root` once, sketching every frame for `setups` (`progress` after
-    /// each set), or, when the sketches would keep more than `budget` bytes, leaves it to be
-    /// read again for each pass.
+    /// Reads `source`, the recording `root` opened with `fps`, once, sketching every frame
+    /// for `setups` (`progress` after each set), or, when the sketches would keep more than
+    /// `budget` bytes, leaves it to be read again for each pass.
     fn read(
+        mut source: FolderSource,
         root: &'a Path,
         fps: Option<f64>,
         setups: &[CameraSetup],
         budget: usize,
         progress: &dyn Fn(),
     ) -> Result<Self, PipelineError> {
-        let mut source = FolderSource::open(root, fps)?;
         let len_hint = source.len_hint();
         let mut stream = DetectStream::<Sketch>::detecting(&mut source, setups.to_vec())?;
         let cameras = stream.camera_names();
@@ -557,11 +564,14 @@ pub fn detect_learned(
     given: LimitsGiven,
     progress: &dyn Fn(),
 ) -> Result<(DetectedRecording, DetectLimits), PipelineError> {
-    detect_learned_within(root, fps, setups, given, SKETCH_BYTES, progress)
+    let source = FolderSource::open(root, fps)?;
+    detect_learned_within(source, root, fps, setups, given, SKETCH_BYTES, progress)
 }
 
-/// [`detect_learned`] with the sketches' budget in bytes.
+/// [`detect_learned`] of `source`, the recording `root` opened with `fps`, with the sketches'
+/// budget in bytes.
 fn detect_learned_within(
+    source: FolderSource,
     root: &Path,
     fps: Option<f64>,
     mut setups: Vec<CameraSetup>,
@@ -569,7 +579,7 @@ fn detect_learned_within(
     budget: usize,
     progress: &dyn Fn(),
 ) -> Result<(DetectedRecording, DetectLimits), PipelineError> {
-    let frames = Frames::read(root, fps, &setups, budget, progress)?;
+    let frames = Frames::read(source, root, fps, &setups, budget, progress)?;
     let (cameras, sampled) = frames.camera_limits(&mut setups, given.min_area_px)?;
     let floor = given.min_roundness.unwrap_or(ROUNDNESS_FLOOR);
     for setup in &mut setups {
@@ -1046,8 +1056,17 @@ mod tests {
         };
         for (setups, given) in [(setups, LimitsGiven::default()), (fixed, all_given)] {
             let run = |budget| {
-                detect_learned_within(dir.path(), None, setups.clone(), given, budget, &|| {})
-                    .expect("the recording detected")
+                let source = FolderSource::open(dir.path(), None).expect("the recording opened");
+                detect_learned_within(
+                    source,
+                    dir.path(),
+                    None,
+                    setups.clone(),
+                    given,
+                    budget,
+                    &|| {},
+                )
+                .expect("the recording detected")
             };
             let (sketched, sketched_limits) = run(SKETCH_BYTES);
             let (reread, reread_limits) = run(0);
