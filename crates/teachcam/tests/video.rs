@@ -353,7 +353,7 @@ fn luma_planes_decode_to_what_ffmpegs_gray_conversion_gives() {
         assert!(status.success(), "encoding {name}");
         let info = teachcam::source::video::probe(&video, "cam0").unwrap();
         assert_eq!(info.gray, expected_way, "{name}: {info:?}");
-        let mut reader = teachcam::source::video::VideoReader::start(&video, info).unwrap();
+        let mut reader = teachcam::source::video::VideoReader::start(&video, info, 1).unwrap();
         let mut ours = Vec::new();
         while let Some(frame) = reader.next_frame() {
             match frame.unwrap() {

@@ -147,6 +147,12 @@ impl FolderSource {
     /// [`SourceError`] naming the folder, the camera or the video.
     pub fn open(root: &Path, fps_override: Option<f64>) -> Result<Self, SourceError> {
         let listing = list_recording(root, fps_override)?;
+        let videos = listing
+            .cameras
+            .iter()
+            .filter(|c| matches!(c.media, CameraMedia::Video(_)))
+            .count();
+        let threads = super::video::decoder_threads(videos);
         let mut cameras = Vec::new();
         let mut streams = Vec::new();
         let mut lengths = Vec::new();
@@ -172,7 +178,9 @@ impl FolderSource {
                         name: entry.name.clone(),
                         size: Some(info.size),
                     });
-                    streams.push(Stream::Video(Box::new(VideoReader::start(path, info)?)));
+                    streams.push(Stream::Video(Box::new(VideoReader::start(
+                        path, info, threads,
+                    )?)));
                 }
             }
         }

@@ -265,18 +265,21 @@ pub struct VideoReader {
 }
 
 impl VideoReader {
-    /// Starts decoding a probed video.
+    /// Starts decoding a probed video with `threads` decoder threads (FFmpeg's `-threads`;
+    /// [`decoder_threads`] shares the machine's cores between the videos read at once).
     ///
     /// # Errors
     /// [`SourceError::FfmpegMissing`] without ffmpeg, [`SourceError::Video`] otherwise.
-    pub fn start(path: &Path, info: VideoInfo) -> Result<Self, SourceError> {
+    pub fn start(path: &Path, info: VideoInfo, threads: usize) -> Result<Self, SourceError> {
         let gray: &[&str] = match info.gray {
             GrayFrom::Luma { .. } => &["-vf", "extractplanes=y"],
             GrayFrom::Converted if info.deep => &["-pix_fmt", "gray16le"],
             GrayFrom::Converted => &["-pix_fmt", "gray"],
         };
         let mut child = Command::new("ffmpeg")
-            .args(["-nostdin", "-v", "error", "-i"])
+            .args(["-nostdin", "-v", "error", "-threads"])
+            .arg(threads.max(1).to_string())
+            .arg("-i")
             .arg(path)
             .args([
                 "-map",
@@ -423,6 +426,15 @@ impl VideoReader {
 /// until it ends, fails or `sender`'s receiver is gone; `expand`: limited-range luma, made
 /// full-range gray. Each frame is read into a buffer of its exact size, not zeroed first
 /// (`read_to_end` fills the spare capacity).
+/// Decoder threads for each of `videos` videos read at once: the machine's cores shared
+/// between them, at least one each. Frame-threaded decoders (MPEG-4, H.264) spend CPU on
+/// handing frames between threads; with more decoders than cores that is pure loss (notes/speed.md).
+#[must_use]
+pub fn decoder_threads(videos: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    (cores / videos.max(1)).max(1)
+}
+
 fn read_frames(
     mut stdout: ChildStdout,
     size: (u32, u32),
