@@ -23,7 +23,7 @@ from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.internal import InvalidSample
-from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
+from cyclonedds.idl.types import array, float32, float64, int32, sequence, uint8, uint32
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
@@ -122,6 +122,69 @@ class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::Diagnosti
     status: sequence[DiagnosticStatus]
 
 
+@dataclass
+class Duration(IdlStruct, typename="builtin_interfaces::msg::dds_::Duration_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+class ColorRGBA(IdlStruct, typename="std_msgs::msg::dds_::ColorRGBA_"):
+    r: float32
+    g: float32
+    b: float32
+    a: float32
+
+
+@dataclass
+class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedImage_"):
+    header: Header
+    format: str
+    data: sequence[uint8]
+
+
+@dataclass
+class UVCoordinate(IdlStruct, typename="visualization_msgs::msg::dds_::UVCoordinate_"):
+    u: float32
+    v: float32
+
+
+@dataclass
+class MeshFile(IdlStruct, typename="visualization_msgs::msg::dds_::MeshFile_"):
+    filename: str
+    data: sequence[uint8]
+
+
+# visualization_msgs/msg/Marker as Humble and Jazzy define it (Foxy and Galactic lack the
+# texture, uv_coordinates and mesh_file fields).
+@dataclass
+class Marker(IdlStruct, typename="visualization_msgs::msg::dds_::Marker_"):
+    header: Header
+    ns: str
+    id: int32
+    type: int32
+    action: int32
+    pose: Pose
+    scale: Vector3
+    color: ColorRGBA
+    lifetime: Duration
+    frame_locked: bool
+    points: sequence[Point]
+    colors: sequence[ColorRGBA]
+    texture_resource: str
+    texture: CompressedImage
+    uv_coordinates: sequence[UVCoordinate]
+    text: str
+    mesh_resource: str
+    mesh_file: MeshFile
+    mesh_use_embedded_materials: bool
+
+
+@dataclass
+class MarkerArray(IdlStruct, typename="visualization_msgs::msg::dds_::MarkerArray_"):
+    markers: sequence[Marker]
+
+
 def fail(message):
     print(f"FAIL: {message}")
     sys.exit(1)
@@ -165,6 +228,11 @@ def main():
         "status": DataReader(
             participant,
             Topic(participant, "rt/teachcam/status", DiagnosticArray, qos=qos),
+            qos=qos,
+        ),
+        "markers": DataReader(
+            participant,
+            Topic(participant, "rt/teachcam/markers", MarkerArray, qos=qos),
             qos=qos,
         ),
         "tf_static": DataReader(
@@ -228,6 +296,23 @@ def main():
         {t.child_frame_id for m in received["tf_static"] for t in m.transforms}
     )
     levels = sorted({s.level for m in received["status"] for s in m.status})
+    # RViz's markers: per array its stamp, the tip's sphere and the tool's marker spheres.
+    marker_arrays = []
+    for m in received["markers"]:
+        by_id = {k.id: k for k in m.markers}
+        tip, spheres = by_id.get(1), by_id.get(0)
+        if tip is None or tip.type != 2 or spheres is None or spheres.type != 7:
+            fail("a marker array without the tip (id 1, SPHERE) and markers (id 0, SPHERE_LIST)")
+        if any(k.header.frame_id != args.frame_id for k in m.markers):
+            fail("a marker in another frame")
+        marker_arrays.append(
+            {
+                "stamp": stamp_s(tip.header.stamp),
+                "tip": [tip.pose.position.x, tip.pose.position.y, tip.pose.position.z],
+                "diameter_m": spheres.scale.x,
+                "spheres": [[p.x, p.y, p.z] for p in spheres.points],
+            }
+        )
     print(
         json.dumps(
             {
@@ -247,6 +332,7 @@ def main():
                 "tf_parents": tf_parents,
                 "tf_static_children": static_children,
                 "status_levels": levels,
+                "markers": marker_arrays,
                 "covariance_first": [tools[0].pose.covariance[7 * i] for i in range(6)],
                 "positions_m": xs,
             }

@@ -4,9 +4,12 @@ The messages are decoded by `mcap-ros2-support` from the schemas embedded in the
 from teachcam's code); the expected numbers come from the trajectory CSV and, with a robot,
 from `teachcam check --joints-out`.
 
+RViz's markers (`/teachcam/markers`, 5 Hz): the tip's sphere at the tip, and, with `--tool`,
+the tool's marker spheres where the CSV's pose puts the tool file's markers (rotated here).
+
 Run: python3 -m venv target/ros-venv && target/ros-venv/bin/pip install mcap mcap-ros2-support
      target/ros-venv/bin/python scripts/ros2/read_mcap.py take.mcap TRAJ.csv [JOINTS.csv] \
-         [--frame-id world] [--cameras N]
+         [--frame-id world] [--cameras N] [--tool TOOL.json]
 Prints one JSON line with what it counted; exits 1 naming the first check that fails.
 """
 
@@ -28,6 +31,61 @@ def stamp_s(stamp):
     return stamp.sec + stamp.nanosec * 1e-9
 
 
+def rotate(q, v):
+    """v rotated by the unit quaternion q = (w, x, y, z)."""
+    w, x, y, z = q
+    # v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
+    ux = (y * v[2] - z * v[1], z * v[0] - x * v[2], x * v[1] - y * v[0])
+    uux = (y * ux[2] - z * ux[1], z * ux[0] - x * ux[2], x * ux[1] - y * ux[0])
+    return [v[i] + 2 * w * ux[i] + 2 * uux[i] for i in range(3)]
+
+
+def check_markers(messages, posed, frame_id, tool):
+    """The marker arrays against the posed rows; returns (count, worst metres)."""
+    # The frames that carry markers: the first posed, then each first posed 0.2 s after.
+    expected, last = [], None
+    for row in posed:
+        t = float(row["time_s"])
+        if last is None or t < last or t - last >= 0.2 * (1 - 1e-9):
+            expected.append(row)
+            last = t
+    if len(messages) != len(expected):
+        fail(f"{len(messages)} marker arrays, expected {len(expected)} (5 Hz over the posed frames)")
+    worst = 0.0
+    for row, m in zip(expected, messages):
+        markers = m.ros_msg.markers
+        by_id = {k.id: k for k in markers}
+        tip = by_id.get(1)
+        if tip is None or tip.type != 2:
+            fail("no tip sphere (id 1, SPHERE)")
+        for k in markers:
+            if k.header.frame_id != frame_id:
+                fail(f"marker frame_id {k.header.frame_id!r}")
+            if abs(stamp_s(k.header.stamp) - float(row["time_s"])) > 1e-6:
+                fail(f"frame {row['frame']}: marker stamp {stamp_s(k.header.stamp)}")
+        want = [float(row[k]) / 1000.0 for k in ("tip_x_mm", "tip_y_mm", "tip_z_mm")]
+        got = tip.pose.position
+        worst = max(worst, abs(got.x - want[0]), abs(got.y - want[1]), abs(got.z - want[2]))
+        if tool is not None:
+            spheres = by_id.get(0)
+            if spheres is None or spheres.type != 7:
+                fail("no marker spheres (id 0, SPHERE_LIST)")
+            if abs(spheres.scale.x - tool["marker_diameter_mm"] / 1000.0) > 1e-9:
+                fail(f"sphere diameter {spheres.scale.x} m")
+            q = [float(row[k]) for k in ("qw", "qx", "qy", "qz")]
+            t = [float(row[k]) for k in ("x_mm", "y_mm", "z_mm")]
+            if len(spheres.points) != len(tool["markers"]):
+                fail(f"{len(spheres.points)} marker spheres for {len(tool['markers'])} markers")
+            for point, marker in zip(spheres.points, tool["markers"]):
+                r = rotate(q, marker)
+                want = [(r[i] + t[i]) / 1000.0 for i in range(3)]
+                worst = max(worst, abs(point.x - want[0]), abs(point.y - want[1]),
+                            abs(point.z - want[2]))
+    if worst > 1e-6:
+        fail(f"marker positions differ from the tracked ones in metres by {worst} m")
+    return len(messages), worst
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("mcap")
@@ -35,7 +93,12 @@ def main():
     parser.add_argument("joints", nargs="?")
     parser.add_argument("--frame-id", default="world")
     parser.add_argument("--cameras", type=int, default=0)
+    parser.add_argument("--tool", help="the tool file: check the marker spheres too")
     args = parser.parse_args()
+    tool_file = None
+    if args.tool:
+        with open(args.tool) as f:
+            tool_file = json.load(f)
 
     with open(args.trajectory, newline="") as f:
         rows = list(csv.DictReader(f))
@@ -98,6 +161,12 @@ def main():
     if len(status) != len(rows):
         fail(f"{len(status)} status messages for {len(rows)} frames")
 
+    if types.get("/teachcam/markers") != "visualization_msgs/msg/MarkerArray":
+        fail(f"/teachcam/markers type {types.get('/teachcam/markers')}")
+    marker_arrays, worst_marker_m = check_markers(
+        by_topic.get("/teachcam/markers", []), posed, args.frame_id, tool_file
+    )
+
     cameras = 0
     if args.cameras:
         static = by_topic.get("/tf_static", [])
@@ -137,6 +206,8 @@ def main():
         "tf_messages": len(tf),
         "cameras": cameras,
         "joint_points": points,
+        "marker_arrays": marker_arrays,
+        "worst_marker_m": worst_marker_m,
         "worst_position_m": worst_m,
         "worst_stamp_s": worst_s,
         "worst_joint_rad": worst_rad,

@@ -5,7 +5,8 @@
 //! library's CDR writer; this module only puts them on the wire with ROS 2's names: topic
 //! `rt/<topic>`, type `package::msg::dds_::Type_`, QoS as ROS 2's default profile (reliable,
 //! volatile, keep last 10), `/tf_static` transient local, keep last 1, as tf2's static
-//! broadcaster.
+//! broadcaster. `/teachcam/markers` (`visualization_msgs/msg/MarkerArray`, Humble's and
+//! Jazzy's layout) goes out at 5 Hz on frames with a pose.
 //!
 //! Discovery follows ROS 2's own switches: `ROS_DOMAIN_ID` (default 0);
 //! `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` (or, when that is unset, `ROS_LOCALHOST_ONLY=1`)
@@ -25,9 +26,13 @@ use rustdds::{
 use teachcam::camera::Rig;
 use teachcam::pipeline::TrackedFrame;
 use teachcam::ros2::msg::{
-    DiagnosticArray, Message, PoseWithCovarianceStamped, TfMessage, Time, dds_type_name,
+    DiagnosticArray, MarkerArray, Message, PoseWithCovarianceStamped, TfMessage, Time,
+    dds_type_name,
 };
-use teachcam::ros2::take::{Frames, camera_transforms, frame_messages_at};
+use teachcam::ros2::take::{
+    Frames, MarkerRate, camera_transforms, frame_messages_at, tool_markers,
+};
+use teachcam::tool::Tool;
 
 /// A message already encoded by `teachcam::ros2` (CDR with its encapsulation header).
 #[derive(Debug, Clone)]
@@ -136,6 +141,11 @@ pub struct Ros2Live {
     tool: Writer,
     tf: Writer,
     status: Writer,
+    /// `/teachcam/markers`, on the frames `marker_rate` picks (5 Hz).
+    markers: Writer,
+    marker_rate: MarkerRate,
+    /// The tool tracked: its markers drawn at each pose.
+    tool_model: Tool,
     // Kept alive: a transient-local writer hands its sample to readers that join later.
     _tf_static: Writer,
     cameras: TfMessage,
@@ -165,6 +175,8 @@ pub struct Published {
     pub tf: usize,
     /// `/teachcam/status` messages.
     pub status: usize,
+    /// `/teachcam/markers` messages (5 Hz, frames with a pose).
+    pub markers: usize,
     /// Writes DDS refused (the frame's messages are then lost, the session goes on).
     pub failed: usize,
 }
@@ -175,11 +187,17 @@ const CAMERAS_EVERY: Duration = Duration::from_secs(1);
 
 impl Ros2Live {
     /// Joins the domain `env` names and creates the writers: `/teachcam/tool`, `/tf`,
-    /// `/teachcam/status`, and `/tf_static` with the rig's cameras (written once).
+    /// `/teachcam/status`, `/teachcam/markers` (`tool_model`'s markers), and `/tf_static`
+    /// with the rig's cameras (written once).
     ///
     /// # Errors
     /// When DDS cannot start (no free participant port, no network interface).
-    pub fn start(env: RosEnv, rig: &Rig, frames: Frames) -> anyhow::Result<Self> {
+    pub fn start(
+        env: RosEnv,
+        rig: &Rig,
+        tool_model: &Tool,
+        frames: Frames,
+    ) -> anyhow::Result<Self> {
         let mut builder = DomainParticipantBuilder::new(env.domain_id);
         if env.range == DiscoveryRange::Localhost {
             builder = builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
@@ -210,6 +228,7 @@ impl Ros2Live {
         )?;
         let tf = writer("/tf", TfMessage::TYPE, default_qos())?;
         let status = writer("/teachcam/status", DiagnosticArray::TYPE, default_qos())?;
+        let markers = writer("/teachcam/markers", MarkerArray::TYPE, default_qos())?;
         let tf_static = writer("/tf_static", TfMessage::TYPE, static_qos())?;
         let epoch = (SystemTime::now(), Instant::now());
         let cameras = camera_transforms(rig, &frames, ros_time(epoch.0));
@@ -223,6 +242,9 @@ impl Ros2Live {
             tool,
             tf,
             status,
+            markers,
+            marker_rate: MarkerRate::default(),
+            tool_model: tool_model.clone(),
             _tf_static: tf_static,
             cameras,
             frames,
@@ -273,6 +295,13 @@ impl Ros2Live {
             }
         }
         if let Some(tool) = messages.tool {
+            if let Some(pose) = &frame.sample.pose
+                && self.marker_rate.due(frame.sample.time_s)
+            {
+                let markers = tool_markers(pose, Some(&self.tool_model), &tool.header);
+                let ok = self.markers.write(Encoded(markers.encode()), None).is_ok();
+                self.count(ok, |p| &mut p.markers);
+            }
             let ok = self.tool.write(Encoded(tool.encode()), None).is_ok();
             self.count(ok, |p| &mut p.tool);
         }

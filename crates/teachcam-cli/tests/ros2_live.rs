@@ -3,6 +3,8 @@
 //! with `ROS_LOCALHOST_ONLY=1` and `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, the reader with a
 //! `CYCLONEDDS_URI` on the `lo` interface, multicast off, a loopback peer.
 
+#![allow(clippy::print_stderr)]
+
 use std::process::Stdio;
 
 use serde_json::Value;
@@ -32,6 +34,118 @@ fn csv_tips(stdout: &str) -> Vec<[f64; 3]> {
             Some([value(x)?, value(y)?, value(z)?])
         })
         .collect()
+}
+
+/// The live run's posed rows: tip, tool origin (millimetres) and orientation `qw, qx, qy, qz`.
+fn csv_poses(stdout: &str) -> Vec<([f64; 3], [f64; 3], [f64; 4])> {
+    let mut lines = stdout.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let names = [
+        "tip_x_mm", "tip_y_mm", "tip_z_mm", "x_mm", "y_mm", "z_mm", "qw", "qx", "qy", "qz",
+    ];
+    let columns: Vec<usize> = names.iter().map(|n| column(n)).collect();
+    lines
+        .filter(|l| !l.starts_with('{'))
+        .filter_map(|l| {
+            let fields: Vec<&str> = l.split(',').collect();
+            let v: Vec<f64> = columns
+                .iter()
+                .map(|&i| fields.get(i).and_then(|v| v.parse::<f64>().ok()))
+                .collect::<Option<_>>()?;
+            Some((
+                [v[0], v[1], v[2]],
+                [v[3], v[4], v[5]],
+                [v[6], v[7], v[8], v[9]],
+            ))
+        })
+        .collect()
+}
+
+/// `v` turned by the unit quaternion `q = (w, x, y, z)`, written out here (not the library's).
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    let [w, x, y, z] = q;
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let u = [x, y, z];
+    let uv = cross(u, v);
+    let uuv = cross(u, uv);
+    std::array::from_fn(|i| v[i] + 2.0 * w * uv[i] + 2.0 * uuv[i])
+}
+
+/// RViz's markers as the reader received them: each array's tip sphere is a frame's tip, and
+/// its marker spheres are the paper brush's markers where that frame's pose puts them, in
+/// metres (≤ 1e-6 m); 5 Hz.
+fn check_markers(got: &Value, published: u64, stdout: &str) {
+    let arrays = got["markers"].as_array().unwrap();
+    // 8 s at 5 Hz; the first may go out before the reader matched.
+    assert!(
+        (38..=41).contains(&published),
+        "{published} marker arrays published"
+    );
+    assert!(
+        arrays.len() >= 25 && arrays.len() as u64 <= published,
+        "{got}"
+    );
+    let poses = csv_poses(stdout);
+    let brush = teachcam::sim::scenario::paper_brush();
+    let vector = |v: &Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let mut stamps = Vec::new();
+    for array in arrays {
+        stamps.push(array["stamp"].as_f64().unwrap());
+        let tip = vector(&array["tip"]);
+        let off = |a: &[f64], b_mm: [f64; 3]| {
+            (0..3)
+                .map(|i| (b_mm[i] / 1000.0 - a[i]).abs())
+                .fold(0.0, f64::max)
+        };
+        // The frame whose tip it is.
+        let (row_tip, origin, q) = poses
+            .iter()
+            .min_by(|a, b| off(&tip, a.0).total_cmp(&off(&tip, b.0)))
+            .unwrap();
+        assert!(
+            off(&tip, *row_tip) < 1e-6,
+            "{tip:?} is no frame's tip in metres"
+        );
+        assert!(
+            (array["diameter_m"].as_f64().unwrap() - brush.marker_diameter_mm / 1000.0).abs()
+                < 1e-12
+        );
+        let spheres = array["spheres"].as_array().unwrap();
+        assert_eq!(spheres.len(), brush.markers_in_tool.len());
+        for (sphere, marker) in spheres.iter().zip(&brush.markers_in_tool) {
+            let r = rotate(*q, [marker.x, marker.y, marker.z]);
+            let want = std::array::from_fn(|i| r[i] + origin[i]);
+            let sphere = vector(sphere);
+            assert!(
+                off(&sphere, want) < 1e-6,
+                "{sphere:?} m against the tracked marker {want:?} mm"
+            );
+        }
+    }
+    let mut steps: Vec<f64> = stamps.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let median = steps[steps.len() / 2];
+    assert!(
+        (median - 0.2).abs() < 0.02,
+        "markers every {median} s, not 5 Hz"
+    );
+    eprintln!(
+        "markers: {published} arrays published, {} received, median step {median:.4} s",
+        arrays.len()
+    );
 }
 
 #[test]
@@ -121,6 +235,7 @@ fn cyclone_dds_receives_the_live_poses_on_loopback() {
         assert!(children.contains(child), "{got}");
     }
     assert!(got["status"].as_u64().unwrap() >= received, "{got}");
+    check_markers(&got, summary["ros2"]["markers"].as_u64().unwrap(), &stdout);
     // /tf_static is transient local: written once at the start, before the reader matched,
     // and still delivered.
     assert_eq!(

@@ -114,6 +114,8 @@ fn a_take_reads_back_with_one_pose_per_posed_frame() {
     assert_eq!(counts["/teachcam/status"], read.samples.len());
     assert_eq!(counts["/tf"], posed.len());
     assert!(!counts.contains_key("/teachcam/joint_trajectory"));
+    // Without a tool file the markers are the tip's sphere alone, at 5 Hz.
+    assert_eq!(counts["/teachcam/markers"], 20, "{counts:?}");
     for (sample, (log_time, pose)) in posed.iter().zip(&tool) {
         let tip = sample.pose.unwrap().tip_in_world;
         for (got, mm) in pose.position.iter().zip([tip.x, tip.y, tip.z]) {
@@ -137,6 +139,8 @@ fn ros2_readers_decode_the_take_as_the_csvs_say() {
     let dir = tempfile::tempdir().unwrap();
     let trajectory = dir.path().join("stroke.csv");
     write_stroke(&trajectory);
+    let tool = dir.path().join("tool.json");
+    teachcam::io::tool::write_tool(&tool, &teachcam::sim::scenario::paper_brush()).unwrap();
     let joints = dir.path().join("joints.csv");
     let out = teachcam(&[
         "check",
@@ -147,6 +151,8 @@ fn ros2_readers_decode_the_take_as_the_csvs_say() {
         WOBJ,
         "--tcp",
         TCP,
+        "--tool",
+        tool.to_str().unwrap(),
         "--joints-out",
         joints.to_str().unwrap(),
     ]);
@@ -166,6 +172,8 @@ fn ros2_readers_decode_the_take_as_the_csvs_say() {
             TCP,
             "--rig",
             rig.to_str().unwrap(),
+            "--tool",
+            tool.to_str().unwrap(),
         ],
     );
     assert!(out.status.success(), "{}", text(&out));
@@ -179,6 +187,8 @@ fn ros2_readers_decode_the_take_as_the_csvs_say() {
         joints.into(),
         "--cameras".into(),
         cameras.into(),
+        "--tool".into(),
+        tool.into(),
     ];
     let test = "ros2_readers_decode_the_take_as_the_csvs_say";
     let Some(result) =
@@ -190,6 +200,9 @@ fn ros2_readers_decode_the_take_as_the_csvs_say() {
     // 120 frames less the 5-frame gap; the outlier keeps its pose but not its joints.
     assert!(summary.contains("\"tool_messages\": 115"), "{summary}");
     assert!(summary.contains("\"joint_points\": 114"), "{summary}");
+    // 5 Hz over 4 s of posed frames at 30 Hz: frames 0, 6, ... 36, then 45 (the first after
+    // the gap), 51, ... 117: 7 + 13.
+    assert!(summary.contains("\"marker_arrays\": 20"), "{summary}");
 }
 
 #[test]

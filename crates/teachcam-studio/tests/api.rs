@@ -800,7 +800,8 @@ async fn the_robot_check_takes_exports_span_strokes_and_free_tool_axis() {
 /// folder: read back here (the `mcap` crate, the poses decoded by the tests' own CDR reader)
 /// and by ROS 2's Python readers from the file's own schemas: one `/teachcam/tool` message
 /// per posed frame of the studio's take, at the tip in metres, stamped with its times, a
-/// status per frame, the rig's cameras on `/tf_static`.
+/// status per frame, the rig's cameras on `/tf_static`, RViz's markers at 5 Hz where the
+/// tool's markers and tip were tracked.
 #[tokio::test(flavor = "multi_thread")]
 async fn record_writes_the_tracked_take_as_a_ros2_bag() {
     let out = tempfile::tempdir().unwrap();
@@ -861,8 +862,14 @@ async fn record_writes_the_tracked_take_as_a_ros2_bag() {
     // ROS 2's readers, against the studio's take written as a trajectory CSV.
     let csv = out.path().join("take.csv");
     teachcam::io::trajectory::write_trajectory(&csv, &take).unwrap();
-    let args: Vec<std::ffi::OsString> =
-        vec![bag.into(), csv.into(), "--cameras".into(), "3".into()];
+    let args: Vec<std::ffi::OsString> = vec![
+        bag.into(),
+        csv.into(),
+        "--cameras".into(),
+        "3".into(),
+        "--tool".into(),
+        folder.join("tool.json").into(),
+    ];
     let test = "record_writes_the_tracked_take_as_a_ros2_bag";
     if let Some(result) =
         teachcam_testdata::ros2_script(test, "mcap_ros2", "ros2/read_mcap.py", &args)
@@ -873,5 +880,8 @@ async fn record_writes_the_tracked_take_as_a_ros2_bag() {
             summary.contains(&format!("\"tool_messages\": {}", posed.len())),
             "{summary}"
         );
+        // RViz's markers at 5 Hz over the 2 s (the reader checks which frames carry them).
+        let read: Value = serde_json::from_str(summary.trim()).unwrap();
+        assert!(read["marker_arrays"].as_u64().unwrap() >= 9, "{summary}");
     }
 }

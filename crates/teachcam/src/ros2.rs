@@ -3,7 +3,7 @@
 //!
 //! - [`cdr`]: the CDR encoding (little endian, encapsulation header).
 //! - [`msg`]: the message types (`geometry_msgs`, `tf2_msgs`, `diagnostic_msgs`,
-//!   `trajectory_msgs`) and their definitions.
+//!   `trajectory_msgs`, `visualization_msgs`) and their definitions.
 //! - [`take`]: a trajectory's frames, a rig's cameras and a checked joint path as messages.
 //! - [`bag`]: a take written as a ROS 2 MCAP file (CDR, `ros2msg` schemas embedded).
 

@@ -84,7 +84,7 @@ pub struct CellArgs {
     #[arg(long, allow_hyphen_values = true, default_value = "0,0,0,1,0,0,0", value_parser = crate::flags::pose)]
     pub tcp: String,
     /// Tool file whose `tip_rotation` turns the TCP frame (without it, the TCP has the tool's
-    /// orientation).
+    /// orientation); `export mcap` also draws its markers on `/teachcam/markers`.
     #[arg(long)]
     pub tool: Option<PathBuf>,
     /// Fraction of each axis's maximum speed the path may use (0 < f <= 1): the time scale

@@ -45,9 +45,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .samples
         .sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     let rig = args.rig.as_deref().map(crate::load::rig).transpose()?;
+    let tool = args
+        .cell
+        .tool
+        .as_deref()
+        .map(crate::load::tool)
+        .transpose()?;
     let mut take = tracked_take(
         trajectory.samples.iter().map(|s| (s, None)),
         rig.as_ref(),
+        tool.as_ref(),
         &frames,
     )
     .with_context(|| args.trajectory.display().to_string())

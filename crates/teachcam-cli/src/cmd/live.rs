@@ -154,7 +154,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     .map_err(|e| crate::recording::pipeline_error(e, tool_path))?;
     let lag_frames = options.lag_frames;
     let mut ros2 = match ros2_settings {
-        Some((env, frames)) => Some(Ros2Live::start(env, &rig, frames)?),
+        Some((env, frames)) => Some(Ros2Live::start(env, &rig, &tool, frames)?),
         None => None,
     };
     let started = Instant::now();

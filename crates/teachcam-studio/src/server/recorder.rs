@@ -50,6 +50,7 @@ pub struct Recorder {
     cameras: usize,
     fps: f64,
     rig: Rig,
+    tool: Tool,
     /// The frames the conductor tracked while recording, with their status reasons, on one
     /// time line (see [`Recorder::track`]).
     tracked: Vec<(Sample, String)>,
@@ -116,6 +117,7 @@ impl Recorder {
             cameras,
             fps,
             rig: rig.clone(),
+            tool: tool.clone(),
             tracked: Vec::new(),
             last_tracked: None,
             offset: (0, 0.0),
@@ -240,6 +242,7 @@ impl Recorder {
                 .zip(&self.tracked)
                 .map(|(s, (_, reason))| (s, Some(reason.as_str()))),
             Some(&self.rig),
+            Some(&self.tool),
             &RosFrames::default(),
         )
         .map_err(|e| FileError::Invalid {

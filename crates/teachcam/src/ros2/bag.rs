@@ -6,7 +6,9 @@
 use std::collections::BTreeMap;
 use std::io::Cursor;
 
-use super::msg::{DiagnosticArray, JointTrajectory, Message, PoseWithCovarianceStamped, TfMessage};
+use super::msg::{
+    DiagnosticArray, JointTrajectory, MarkerArray, Message, PoseWithCovarianceStamped, TfMessage,
+};
 use super::take::FrameMessages;
 
 /// The topics of a take.
@@ -21,6 +23,8 @@ pub mod topic {
     pub const STATUS: &str = "/teachcam/status";
     /// The checked joint path.
     pub const JOINT_TRAJECTORY: &str = "/teachcam/joint_trajectory";
+    /// RViz's markers of the tool and the tip, at 5 Hz.
+    pub const MARKERS: &str = "/teachcam/markers";
 }
 
 /// Everything a take holds.
@@ -102,7 +106,7 @@ impl<'a> Channels<'a> {
 }
 
 /// The take as the bytes of an MCAP file: per frame `/tf` and `/teachcam/tool` (frames with a
-/// pose) and `/teachcam/status`; `/tf_static` and `/teachcam/joint_trajectory` once, at the
+/// pose) and `/teachcam/status`, `/teachcam/markers` on the frames that have them; `/tf_static` and `/teachcam/joint_trajectory` once, at the
 /// first frame's time. Log and publish times are the messages' stamps.
 ///
 /// # Errors
@@ -126,6 +130,9 @@ pub fn mcap_bytes(take: &Take) -> Result<Vec<u8>, BagError> {
     if take.joint_trajectory.is_some() {
         channels.add::<JointTrajectory>(topic::JOINT_TRAJECTORY)?;
     }
+    if take.frames.iter().any(|f| f.markers.is_some()) {
+        channels.add::<MarkerArray>(topic::MARKERS)?;
+    }
     let start = take.frames.first().map_or(0, |f| f.stamp.nanoseconds());
     if let Some(cameras) = &take.cameras {
         channels.write(topic::TF_STATIC, start, cameras)?;
@@ -146,6 +153,9 @@ pub fn mcap_bytes(take: &Take) -> Result<Vec<u8>, BagError> {
             channels.write(topic::TOOL, time, tool)?;
         }
         channels.write(topic::STATUS, time, &frame.status)?;
+        if let Some(markers) = &frame.markers {
+            channels.write(topic::MARKERS, time, markers)?;
+        }
     }
     channels.writer.finish().map_err(bag_error)?;
     Ok(channels.writer.into_inner().into_inner())

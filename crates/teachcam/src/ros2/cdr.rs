@@ -57,6 +57,17 @@ impl CdrWriter {
         self.bytes.extend_from_slice(&value.to_le_bytes());
     }
 
+    /// A `float32`.
+    pub fn f32(&mut self, value: f32) {
+        self.align(4);
+        self.bytes.extend_from_slice(&value.to_le_bytes());
+    }
+
+    /// A `bool` (one byte, 0 or 1).
+    pub fn bool(&mut self, value: bool) {
+        self.u8(u8::from(value));
+    }
+
     /// A `float64`.
     pub fn f64(&mut self, value: f64) {
         self.align(8);

@@ -4,7 +4,12 @@
 //!
 //! Field order, types and constants are those of ROS 2's `common_interfaces` and
 //! `rcl_interfaces` packages (`builtin_interfaces`, `std_msgs`, `geometry_msgs`, `tf2_msgs`,
-//! `diagnostic_msgs`, `trajectory_msgs`); comments are left out of the texts.
+//! `diagnostic_msgs`, `trajectory_msgs`, `visualization_msgs`); comments are left out of the
+//! texts. `visualization_msgs/msg/Marker` is the layout of Humble and Jazzy (the same fields;
+//! Jazzy's text, which adds the constant `ARROW_STRIP`): since Humble it carries
+//! `texture_resource`, `texture`, `uv_coordinates` and `mesh_file`, which Foxy and Galactic
+//! lack, so a subscriber of those distributions cannot read it live (a bag embeds its schema,
+//! so their readers decode it anyway).
 
 use super::cdr::CdrWriter;
 
@@ -93,9 +98,26 @@ fn msg_text(ty: &str) -> &'static str {
         "trajectory_msgs/msg/JointTrajectory" => {
             "std_msgs/Header header\nstring[] joint_names\nJointTrajectoryPoint[] points\n"
         }
+        "std_msgs/msg/ColorRGBA" => "float32 r\nfloat32 g\nfloat32 b\nfloat32 a\n",
+        "sensor_msgs/msg/CompressedImage" => {
+            "std_msgs/Header header\nstring format\nuint8[] data\n"
+        }
+        "visualization_msgs/msg/UVCoordinate" => "float32 u\nfloat32 v\n",
+        "visualization_msgs/msg/MeshFile" => "string filename\nuint8[] data\n",
+        "visualization_msgs/msg/Marker" => MARKER_MSG,
+        "visualization_msgs/msg/MarkerArray" => "Marker[] markers\n",
         _ => "",
     }
 }
+
+/// `visualization_msgs/msg/Marker` as Humble and Jazzy define it (Jazzy's constants).
+const MARKER_MSG: &str = "int32 ARROW=0\nint32 CUBE=1\nint32 SPHERE=2\nint32 CYLINDER=3\nint32 LINE_STRIP=4\nint32 LINE_LIST=5\nint32 CUBE_LIST=6\nint32 SPHERE_LIST=7\nint32 POINTS=8\nint32 TEXT_VIEW_FACING=9\nint32 MESH_RESOURCE=10\nint32 TRIANGLE_LIST=11\nint32 ARROW_STRIP=12\n\
+int32 ADD=0\nint32 MODIFY=0\nint32 DELETE=2\nint32 DELETEALL=3\n\
+std_msgs/Header header\nstring ns\nint32 id\nint32 type\nint32 action\ngeometry_msgs/Pose pose\ngeometry_msgs/Vector3 scale\nstd_msgs/ColorRGBA color\nbuiltin_interfaces/Duration lifetime\nbool frame_locked\n\
+geometry_msgs/Point[] points\nstd_msgs/ColorRGBA[] colors\n\
+string texture_resource\nsensor_msgs/CompressedImage texture\nUVCoordinate[] uv_coordinates\n\
+string text\n\
+string mesh_resource\nMeshFile mesh_file\nbool mesh_use_embedded_materials\n";
 
 /// `builtin_interfaces/msg/Time` (and `Duration`, the same fields): whole seconds and
 /// nanoseconds.
@@ -348,6 +370,101 @@ impl Message for JointTrajectory {
     }
 }
 
+/// A marker's shape (`visualization_msgs/msg/Marker`'s `type` constants used here).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shape {
+    /// `SPHERE` (2): one sphere at the pose, `scale` its diameters.
+    Sphere = 2,
+    /// `SPHERE_LIST` (7): a sphere at each point, `scale` their diameters.
+    SphereList = 7,
+}
+
+/// `visualization_msgs/msg/Marker`, action `ADD`, with what teachcam draws (the texture,
+/// text and mesh fields written empty).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Marker {
+    /// Stamp and frame.
+    pub header: Header,
+    /// Namespace; with `id`, the marker's name (a marker replaces the one of its name).
+    pub ns: String,
+    /// Its number in the namespace.
+    pub id: i32,
+    /// The shape.
+    pub shape: Shape,
+    /// Pose of the shape (identity for a list whose points are in the frame).
+    pub pose: RosPose,
+    /// Size, metres (a sphere's diameters).
+    pub scale: [f64; 3],
+    /// `r, g, b, a` in 0..1.
+    pub color: [f32; 4],
+    /// How long the marker stays without a newer one (zero: for ever).
+    pub lifetime: Time,
+    /// Points of a list shape, metres.
+    pub points: Vec<[f64; 3]>,
+}
+
+/// `visualization_msgs/msg/MarkerArray`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MarkerArray {
+    /// The markers.
+    pub markers: Vec<Marker>,
+}
+
+impl Message for MarkerArray {
+    const TYPE: &'static str = "visualization_msgs/msg/MarkerArray";
+    const DEPENDENCIES: &'static [&'static str] = &[
+        "visualization_msgs/msg/Marker",
+        "std_msgs/msg/Header",
+        "builtin_interfaces/msg/Time",
+        "geometry_msgs/msg/Pose",
+        "geometry_msgs/msg/Point",
+        "geometry_msgs/msg/Quaternion",
+        "geometry_msgs/msg/Vector3",
+        "std_msgs/msg/ColorRGBA",
+        "builtin_interfaces/msg/Duration",
+        "sensor_msgs/msg/CompressedImage",
+        "visualization_msgs/msg/UVCoordinate",
+        "visualization_msgs/msg/MeshFile",
+    ];
+
+    fn write(&self, w: &mut CdrWriter) {
+        w.length(self.markers.len());
+        for m in &self.markers {
+            m.header.write(w);
+            w.string(&m.ns);
+            w.i32(m.id);
+            w.i32(m.shape as i32);
+            w.i32(0); // action ADD
+            m.pose.write(w);
+            for v in m.scale {
+                w.f64(v);
+            }
+            for v in m.color {
+                w.f32(v);
+            }
+            m.lifetime.write(w);
+            w.bool(false); // frame_locked
+            w.length(m.points.len());
+            for p in &m.points {
+                for v in p {
+                    w.f64(*v);
+                }
+            }
+            w.length(0); // colors
+            w.string(""); // texture_resource
+            Header::default().write(w); // texture: header, format, data
+            w.string("");
+            w.length(0);
+            w.length(0); // uv_coordinates
+            w.string(""); // text
+            w.string(""); // mesh_resource
+            w.string(""); // mesh_file: filename, data
+            w.length(0);
+            w.bool(false); // mesh_use_embedded_materials
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -367,6 +484,7 @@ mod tests {
             TfMessage::DEPENDENCIES,
             DiagnosticArray::DEPENDENCIES,
             JointTrajectory::DEPENDENCIES,
+            MarkerArray::DEPENDENCIES,
         ] {
             for d in deps {
                 assert!(!msg_text(d).is_empty(), "{d}");

@@ -13,9 +13,12 @@ use crate::robot::kinematics::Maker;
 use crate::trajectory::{Sample, Status, ToolPose};
 
 use super::bag::Take;
+use crate::tool::Tool;
+
 use super::msg::{
     DiagnosticArray, DiagnosticStatus, Header, JointTrajectory, JointTrajectoryPoint, Level,
-    PoseWithCovarianceStamped, RosPose, TfMessage, Time, TransformStamped,
+    Marker, MarkerArray, PoseWithCovarianceStamped, RosPose, Shape, TfMessage, Time,
+    TransformStamped,
 };
 
 /// The variance written where teachcam has no estimate (m² or rad²): large enough that a
@@ -52,6 +55,89 @@ pub struct FrameMessages {
     pub tf: Option<TfMessage>,
     /// `/teachcam/status`: the frame's status, always.
     pub status: DiagnosticArray,
+    /// `/teachcam/markers`: on the frames [`MarkerRate`] picks (a take's; `None` from
+    /// [`frame_messages_at`], whose caller decides).
+    pub markers: Option<MarkerArray>,
+}
+
+/// The period of `/teachcam/markers` (5 Hz): RViz's picture of the tool; the pose itself goes
+/// on `/teachcam/tool` at the frame rate.
+pub const MARKER_PERIOD_S: f64 = 0.2;
+
+/// Which frames carry markers: the first with a pose, then each first with a pose at least
+/// [`MARKER_PERIOD_S`] after the last that did (a time that goes back, a recording played
+/// again, starts afresh).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MarkerRate {
+    last_s: Option<f64>,
+}
+
+impl MarkerRate {
+    /// Whether a frame with a pose at `time_s` carries markers (and, if so, notes it).
+    pub fn due(&mut self, time_s: f64) -> bool {
+        // A frame period that adds up to the period in floating point (6 × 1/30 s) is due.
+        let due = self
+            .last_s
+            .is_none_or(|last| time_s < last || time_s - last >= MARKER_PERIOD_S * (1.0 - 1e-9));
+        if due {
+            self.last_s = Some(time_s);
+        }
+        due
+    }
+}
+
+/// Diameter of the tip's sphere, metres.
+pub const TIP_MARKER_M: f64 = 0.005;
+
+/// RViz markers of a tracked pose in the world frame, metres, namespace `teachcam`: id 0 the
+/// tool's markers (a `SPHERE_LIST`: the tool model's markers placed at the tracked pose, of the
+/// tool's marker diameter; left out without a tool), id 1 the tip (a `SPHERE` of
+/// [`TIP_MARKER_M`]). They last two marker periods, so that they vanish when tracking stops.
+#[must_use]
+pub fn tool_markers(pose: &ToolPose, tool: Option<&Tool>, header: &Header) -> MarkerArray {
+    let lifetime = Time::from_seconds(2.0 * MARKER_PERIOD_S).unwrap_or_default();
+    let identity = RosPose {
+        position: [0.0; 3],
+        orientation: [0.0, 0.0, 0.0, 1.0],
+    };
+    let mut markers = Vec::new();
+    if let Some(tool) = tool {
+        let d = tool.marker_diameter_mm / 1000.0;
+        markers.push(Marker {
+            header: header.clone(),
+            ns: "teachcam".into(),
+            id: 0,
+            shape: Shape::SphereList,
+            pose: identity,
+            scale: [d, d, d],
+            color: [0.85, 0.85, 0.85, 1.0],
+            lifetime,
+            points: tool
+                .markers_in_tool
+                .iter()
+                .map(|m| {
+                    let p = pose.world_from_tool * m;
+                    [p.x / 1000.0, p.y / 1000.0, p.z / 1000.0]
+                })
+                .collect(),
+        });
+    }
+    let tip = pose.tip_in_world;
+    markers.push(Marker {
+        header: header.clone(),
+        ns: "teachcam".into(),
+        id: 1,
+        shape: Shape::Sphere,
+        pose: RosPose {
+            position: [tip.x / 1000.0, tip.y / 1000.0, tip.z / 1000.0],
+            ..identity
+        },
+        scale: [TIP_MARKER_M; 3],
+        color: [1.0, 0.45, 0.0, 1.0],
+        lifetime,
+        points: Vec::new(),
+    });
+    MarkerArray { markers }
 }
 
 /// Why a frame's messages could not be made.
@@ -75,19 +161,31 @@ pub enum TakeError {
 
 /// The take of tracked frames, as `export mcap` and the studio's Record write it: each
 /// frame's messages stamped with its `time_s` (`reason`: its status reason, where the caller
-/// has it), and, with a rig, its cameras on `/tf_static` stamped at the first frame's time.
+/// has it), markers ([`tool_markers`], with `tool`'s spheres when given) on the frames
+/// [`MarkerRate`] picks, and, with a rig, its cameras on `/tf_static` stamped at the first
+/// frame's time.
 ///
 /// # Errors
 /// [`TakeError`] naming the first frame whose time or pose cannot be written.
 pub fn tracked_take<'a>(
     samples: impl IntoIterator<Item = (&'a Sample, Option<&'a str>)>,
     rig: Option<&Rig>,
+    tool: Option<&Tool>,
     frames: &Frames,
 ) -> Result<Take, TakeError> {
+    let mut rate = MarkerRate::default();
     let messages = samples
         .into_iter()
-        .map(|(sample, reason)| frame_messages(sample, reason, frames))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|(sample, reason)| {
+            let mut messages = frame_messages(sample, reason, frames)?;
+            if let (Some(pose), Some(posed)) = (&sample.pose, &messages.tool)
+                && rate.due(sample.time_s)
+            {
+                messages.markers = Some(tool_markers(pose, tool, &posed.header));
+            }
+            Ok(messages)
+        })
+        .collect::<Result<Vec<_>, TakeError>>()?;
     let cameras = rig.map(|rig| {
         let stamp = messages.first().map(|m| m.stamp).unwrap_or_default();
         camera_transforms(rig, frames, stamp)
@@ -166,6 +264,7 @@ pub fn frame_messages_at(
         tool,
         tf,
         status: status_message(sample, reason, header),
+        markers: None,
     })
 }
 
@@ -387,6 +486,17 @@ mod tests {
         assert!(m.tool.is_none() && m.tf.is_none());
         assert_eq!(m.status.status[0].level, Level::Error);
         assert_eq!(m.status.status[0].message, "lost");
+    }
+
+    #[test]
+    fn markers_go_at_five_hertz_and_start_again_when_time_goes_back() {
+        let mut rate = MarkerRate::default();
+        let due: Vec<usize> = (0..31)
+            .filter(|&k| rate.due(f64::from(k) / 30.0))
+            .map(|k| k as usize)
+            .collect();
+        assert_eq!(due, [0, 6, 12, 18, 24, 30]);
+        assert!(rate.due(0.0), "a recording played again");
     }
 
     #[test]
