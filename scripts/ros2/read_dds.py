@@ -305,6 +305,12 @@ def main():
             fail("a marker array without the tip (id 1, SPHERE) and markers (id 0, SPHERE_LIST)")
         if any(k.header.frame_id != args.frame_id for k in m.markers):
             fail("a marker in another frame")
+        # The fields after the points decoded in place (texture, uv_coordinates, mesh_file).
+        for k in m.markers:
+            if (k.text, k.mesh_resource, k.mesh_file.filename, k.mesh_use_embedded_materials) != (
+                "", "", "", False
+            ) or abs(stamp_s(k.lifetime) - 0.4) > 1e-9:
+                fail(f"marker {k.id}: fields after its points do not decode as written")
         marker_arrays.append(
             {
                 "stamp": stamp_s(tip.header.stamp),

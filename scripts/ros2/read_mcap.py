@@ -40,6 +40,21 @@ def rotate(q, v):
     return [v[i] + 2 * w * ux[i] + 2 * uux[i] for i in range(3)]
 
 
+def check_marker_fields(k):
+    """The fields a marker leaves at their defaults, and its lifetime: decoded in place, they
+    show that the fields after the points (texture, uv_coordinates, mesh_file) line up."""
+    if k.action != 0 or k.frame_locked or k.mesh_use_embedded_materials:
+        fail(f"marker {k.id}: action {k.action}, frame_locked, mesh_use_embedded_materials")
+    if (k.text, k.mesh_resource, k.texture_resource, k.texture.format, k.mesh_file.filename) != (
+        "", "", "", "", ""
+    ):
+        fail(f"marker {k.id}: a text or resource field that should be empty")
+    if len(k.mesh_file.data) or len(k.texture.data) or len(k.uv_coordinates) or len(k.colors):
+        fail(f"marker {k.id}: a sequence that should be empty")
+    if abs(stamp_s(k.lifetime) - 0.4) > 1e-9 or abs(k.color.a - 1.0) > 1e-6:
+        fail(f"marker {k.id}: lifetime {stamp_s(k.lifetime)} s, alpha {k.color.a}")
+
+
 def check_markers(messages, posed, frame_id, tool):
     """The marker arrays against the posed rows; returns (count, worst metres)."""
     # The frames that carry markers: the first posed, then each first posed 0.2 s after.
@@ -61,6 +76,7 @@ def check_markers(messages, posed, frame_id, tool):
         for k in markers:
             if k.header.frame_id != frame_id:
                 fail(f"marker frame_id {k.header.frame_id!r}")
+            check_marker_fields(k)
             if abs(stamp_s(k.header.stamp) - float(row["time_s"])) > 1e-6:
                 fail(f"frame {row['frame']}: marker stamp {stamp_s(k.header.stamp)}")
         want = [float(row[k]) / 1000.0 for k in ("tip_x_mm", "tip_y_mm", "tip_z_mm")]
