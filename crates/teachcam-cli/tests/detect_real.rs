@@ -6,25 +6,10 @@
 mod run;
 
 use std::collections::BTreeMap;
-use std::process::Command;
-
-fn ffmpeg_available() -> bool {
-    let found = ["ffmpeg", "ffprobe"].iter().all(|p| {
-        Command::new(p)
-            .arg("-version")
-            .output()
-            .is_ok_and(|o| o.status.success())
-    });
-    assert!(
-        found || std::env::var_os("CI").is_none(),
-        "ffmpeg/ffprobe missing under CI (.ci/run installs them)"
-    );
-    found
-}
 
 #[test]
 fn default_flags_find_the_five_markers_of_the_real_ir_video() {
-    if !ffmpeg_available() {
+    if !teachcam_testdata::ffmpeg("detect_real") {
         return;
     }
     let Some(data) = teachcam_testdata::shared_data("real-ir") else {

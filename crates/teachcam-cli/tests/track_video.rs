@@ -37,20 +37,6 @@ fn succeed(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
-fn ffmpeg_available() -> bool {
-    let found = Command::new("ffmpeg")
-        .arg("-version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !found {
-        teachcam_testdata::skipped(
-            "video",
-            "ffmpeg/ffprobe not installed (apt-get install ffmpeg; .ci/run installs it)",
-        );
-    }
-    found
-}
-
 const FRAMES: usize = 100;
 
 /// `stereo-ir` rendered to `root/png`, its cameras encoded to `root/avi/camN.avi`.
@@ -201,7 +187,7 @@ fn right_poses(trajectory: &Trajectory, truth: &Trajectory, limit_mm: f64) -> Ve
 
 #[test]
 fn avi_cameras_track_as_well_as_their_png_frames() {
-    if !ffmpeg_available() {
+    if !teachcam_testdata::ffmpeg("track_video") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

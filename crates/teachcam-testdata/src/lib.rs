@@ -31,6 +31,28 @@ pub fn skipped(test: &str, why: &str) {
     eprintln!("{test}: skipped: {why}");
 }
 
+/// True when `ffmpeg` and `ffprobe` run here; otherwise `test` is [`skipped`] (a failure under
+/// CI: `.ci/run` installs them) and the caller returns early.
+///
+/// # Panics
+/// When they are missing under CI.
+#[must_use]
+pub fn ffmpeg(test: &str) -> bool {
+    let found = ["ffmpeg", "ffprobe"].iter().all(|program| {
+        std::process::Command::new(program)
+            .arg("-version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    });
+    if !found {
+        skipped(
+            test,
+            "ffmpeg/ffprobe not installed (apt-get install ffmpeg; .ci/run installs it)",
+        );
+    }
+    found
+}
+
 /// `../shared/data/<folder>` (or the data root for `""`), or `None` when it is missing and not
 /// [`under_ci`]; the caller then returns early, its test skipped.
 ///

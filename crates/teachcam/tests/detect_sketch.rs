@@ -11,8 +11,6 @@
     reason = "a test fails loudly on a broken fixture and says why it skipped"
 )]
 
-use std::process::Command;
-
 use image::{GrayImage, ImageBuffer, Luma};
 use teachcam::detect::learn::FrameSample;
 use teachcam::detect::sketch::Sketch;
@@ -115,18 +113,7 @@ fn base() -> DetectConfig {
 
 #[test]
 fn real_ir_video_frames_detect_the_same_from_their_sketches() {
-    let found = ["ffmpeg", "ffprobe"].iter().all(|p| {
-        Command::new(p)
-            .arg("-version")
-            .output()
-            .is_ok_and(|o| o.status.success())
-    });
-    if !found {
-        teachcam_testdata::skipped(
-            "real_ir_video_frames_detect_the_same_from_their_sketches",
-            "ffmpeg/ffprobe not found",
-        );
-        assert!(!teachcam_testdata::under_ci(), "CI must have ffmpeg");
+    if !teachcam_testdata::ffmpeg("real_ir_video_frames_detect_the_same_from_their_sketches") {
         return;
     }
     let Some(data) = teachcam_testdata::shared_data("real-ir") else {

@@ -64,24 +64,9 @@ fn opencv_and_pil_frames_decode_in_one_pass() {
     }
 }
 
-fn ffmpeg_available() -> bool {
-    let found = Command::new("ffmpeg")
-        .arg("-version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    assert!(
-        found || std::env::var_os("CI").is_none(),
-        "ffmpeg missing under CI (.ci/run installs it)"
-    );
-    if !found {
-        eprintln!("skipped: ffmpeg not installed (apt-get install ffmpeg)");
-    }
-    found
-}
-
 #[test]
 fn ffmpeg_frames_decode_in_one_pass_at_every_level_and_filter() {
-    if !ffmpeg_available() {
+    if !teachcam_testdata::ffmpeg("png_writers") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -25,22 +25,6 @@ use teachcam::source::FrameSource;
 use teachcam::source::folder::FolderSource;
 use teachcam::track::gates::GateOverrides;
 
-fn ffmpeg_available() -> bool {
-    let found = ["ffmpeg", "ffprobe"].iter().all(|p| {
-        Command::new(p)
-            .arg("-version")
-            .output()
-            .is_ok_and(|o| o.status.success())
-    });
-    if !found {
-        teachcam_testdata::skipped(
-            "video",
-            "ffmpeg/ffprobe not installed (apt-get install ffmpeg; .ci/run installs it)",
-        );
-    }
-    found
-}
-
 const FRAMES: usize = 12;
 
 /// The paper's scene, its first frames as PNG folders in `root/png`.
@@ -109,7 +93,7 @@ fn centres(frame: &TrackedFrame) -> Vec<Vec<(f64, f64)>> {
 
 #[test]
 fn videos_track_like_their_png_frames() {
-    if !ffmpeg_available() {
+    if !teachcam_testdata::ffmpeg("video") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -189,7 +173,7 @@ fn videos_track_like_their_png_frames() {
 
 #[test]
 fn the_real_ir_video_reads_whole_with_its_five_markers() {
-    if !ffmpeg_available() {
+    if !teachcam_testdata::ffmpeg("video") {
         return;
     }
     let Some(data) = teachcam_testdata::shared_data("real-ir") else {
@@ -296,7 +280,7 @@ fn luma_planes_decode_to_what_ffmpegs_gray_conversion_gives() {
     // 8-bit planar YUV videos are decoded to their luma plane and, in limited range, expanded
     // here; FFmpeg's own conversion to gray is the truth, byte for byte, for each pixel format
     // and range, and for formats that keep FFmpeg's conversion (RGB, 10-bit).
-    if !ffmpeg_available() {
+    if !teachcam_testdata::ffmpeg("video") {
         return;
     }
     let root = tempfile::tempdir().unwrap();
