@@ -19,6 +19,7 @@
 //! than the configuration allows is kept whole.
 
 use std::cell::RefCell;
+use std::thread::LocalKey;
 
 use super::learn::FrameSample;
 use super::{
@@ -159,31 +160,38 @@ impl Sketch {
     /// Calls `f` on the frame rebuilt from the kept boxes (zero elsewhere), in this thread's
     /// scratch frame, which is zeroed again afterwards.
     fn with_frame<T>(&self, f: impl FnOnce(Frame<'_>) -> T) -> T {
+        let (width, height) = (self.width, self.height);
         match &self.boxes {
-            Boxes::Eight(boxes) => SCRATCH_8.with(|scratch| {
-                let mut scratch = scratch.borrow_mut();
-                let pixels = rebuild(&mut scratch, self.width, self.height, boxes);
-                let result = f(Frame::Eight(GrayView {
-                    width: self.width,
-                    height: self.height,
-                    pixels,
-                }));
-                clear(&mut scratch, self.width, boxes);
-                result
+            Boxes::Eight(boxes) => rebuilt(&SCRATCH_8, width, height, boxes, |view| {
+                f(Frame::Eight(view))
             }),
-            Boxes::Sixteen(boxes) => SCRATCH_16.with(|scratch| {
-                let mut scratch = scratch.borrow_mut();
-                let pixels = rebuild(&mut scratch, self.width, self.height, boxes);
-                let result = f(Frame::Sixteen(GrayView {
-                    width: self.width,
-                    height: self.height,
-                    pixels,
-                }));
-                clear(&mut scratch, self.width, boxes);
-                result
+            Boxes::Sixteen(boxes) => rebuilt(&SCRATCH_16, width, height, boxes, |view| {
+                f(Frame::Sixteen(view))
             }),
         }
     }
+}
+
+/// Calls `f` on the `width × height` frame holding `boxes` on zero, built in this thread's
+/// `scratch` and zeroed again afterwards.
+fn rebuilt<P: Intensity, T>(
+    scratch: &'static LocalKey<RefCell<Vec<P>>>,
+    width: usize,
+    height: usize,
+    boxes: &[(PixelBox, Vec<P>)],
+    f: impl FnOnce(GrayView<'_, P>) -> T,
+) -> T {
+    scratch.with(|scratch| {
+        let mut scratch = scratch.borrow_mut();
+        let pixels = rebuild(&mut scratch, width, height, boxes);
+        let result = f(GrayView {
+            width,
+            height,
+            pixels,
+        });
+        clear(&mut scratch, width, boxes);
+        result
+    })
 }
 
 /// A rebuilt frame of either depth.
