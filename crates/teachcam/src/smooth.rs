@@ -31,7 +31,7 @@ pub mod study;
 use nalgebra::{UnitQuaternion, Vector3};
 use rayon::prelude::*;
 
-use crate::geometry::{FrameIndex, Point3, pose_from_parts};
+use crate::geometry::{Point3, pose_from_parts};
 use crate::trajectory::{
     PoseSource, Sample, SampleRateError, Status, ToolPose, Trajectory, check_sample_rate_hz,
 };
@@ -609,7 +609,7 @@ fn smooth_run(
         .collect::<Result<_, _>>()
         .map_err(|e| rename_frames(e, first_frame, last_frame))?;
     let [_, _, _, rx, ry, rz] = &series.columns;
-    for (i, sample) in samples.iter_mut().enumerate() {
+    samples.par_iter_mut().enumerate().for_each(|(i, sample)| {
         let rotation = rotation::corrected(
             &series.rotations[i],
             &Vector3::new(rx[i], ry[i], rz[i]),
@@ -643,7 +643,7 @@ fn smooth_run(
             status,
             cameras,
         };
-    }
+    });
     Ok(())
 }
 
@@ -689,13 +689,13 @@ fn check_finite(trajectory: &Trajectory) -> Result<(), SmoothError> {
     }
 }
 
-/// The first frame and field holding a NaN or an infinity.
+/// The first frame and field holding a NaN or an infinity (the samples checked side by side).
 fn first_not_finite(trajectory: &Trajectory) -> Option<(usize, &'static str)> {
-    for s in &trajectory.samples {
+    trajectory.samples.par_iter().find_map_first(|s| {
         if !s.time_s.is_finite() {
             return Some((s.frame.0, "time_s"));
         }
-        let Some(p) = &s.pose else { continue };
+        let p = s.pose.as_ref()?;
         let t = p.world_from_tool.translation.vector;
         let q = p.world_from_tool.rotation.quaternion();
         let checks = [
@@ -706,11 +706,9 @@ fn first_not_finite(trajectory: &Trajectory) -> Option<(usize, &'static str)> {
                 p.tip_in_world.iter().all(|v| v.is_finite()),
             ),
         ];
-        if let Some((field, _)) = checks.iter().find(|(_, ok)| !ok) {
-            return Some((s.frame.0, field));
-        }
-    }
-    None
+        let (field, _) = checks.iter().find(|(_, ok)| !ok)?;
+        Some((s.frame.0, *field))
+    })
 }
 
 /// The tip in the tool frame, `world_from_tool⁻¹ · tip_in_world`, from the first sample with a
@@ -735,17 +733,20 @@ pub fn recover_tip_in_tool(
     let tip_in_tool = first
         .world_from_tool
         .inverse_transform_point(&first.tip_in_world);
-    for (FrameIndex(frame), p) in with_pose {
+    // Every other pose checked side by side; the first in order beyond the tolerance is named.
+    let beyond = trajectory.samples.par_iter().find_map_first(|s| {
+        let p = s.pose.as_ref()?;
         let here = p.world_from_tool.inverse_transform_point(&p.tip_in_world);
         let deviation_mm = (here - tip_in_tool).norm();
-        if deviation_mm > tolerance_mm {
-            return Err(SmoothError::InconsistentTip {
-                frame,
-                first_frame: first_frame.0,
-                deviation_mm,
-                tolerance_mm,
-            });
-        }
+        (deviation_mm > tolerance_mm).then_some((s.frame.0, deviation_mm))
+    });
+    if let Some((frame, deviation_mm)) = beyond {
+        return Err(SmoothError::InconsistentTip {
+            frame,
+            first_frame: first_frame.0,
+            deviation_mm,
+            tolerance_mm,
+        });
     }
     Ok(tip_in_tool)
 }

@@ -59,7 +59,8 @@ pub fn trajectory_text(path: &Path, trajectory: &Trajectory) -> Result<String, F
 /// # Errors
 /// The message.
 pub fn check_finite(trajectory: &Trajectory) -> Result<(), String> {
-    for s in &trajectory.samples {
+    // The samples checked side by side; the first in order is named.
+    let first = trajectory.samples.par_iter().find_map_first(|s| {
         let pose = s.pose.as_ref().map(|p| {
             let t = p.world_from_tool.translation.vector;
             let q = p.world_from_tool.rotation.quaternion();
@@ -80,14 +81,13 @@ pub fn check_finite(trajectory: &Trajectory) -> Result<(), String> {
         let mut fields = std::iter::once(("time_s", s.time_s))
             .chain(pose.into_iter().flatten())
             .chain(s.tip_std_mm.map(|v| ("tip_std_mm", v)));
-        if let Some((name, value)) = fields.find(|(_, v)| !v.is_finite()) {
-            return Err(format!(
-                "frame {}: {name} is {value}, not a finite number; nothing written",
-                s.frame.0
-            ));
-        }
-    }
-    Ok(())
+        let (name, value) = fields.find(|(_, v)| !v.is_finite())?;
+        Some(format!(
+            "frame {}: {name} is {value}, not a finite number; nothing written",
+            s.frame.0
+        ))
+    });
+    first.map_or(Ok(()), Err)
 }
 
 /// The CSV text of a trajectory.
