@@ -124,6 +124,18 @@ pub enum Threshold {
     AboveBackground(f64),
 }
 
+impl Threshold {
+    /// The level a pixel must be strictly above in an image of type `P` with `background`.
+    #[must_use]
+    pub fn level<P: Intensity>(self, background: &Background) -> u32 {
+        match self {
+            Self::Auto => background.auto_threshold::<P>(),
+            Self::Fixed(level) => level,
+            Self::AboveBackground(contrast) => background.threshold_above::<P>(contrast),
+        }
+    }
+}
+
 /// Which estimate of a blob's centre [`Blob::center`] holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum CenterMethod {
@@ -490,11 +502,7 @@ fn region_blobs<P: Intensity>(
     let background = background
         .copied()
         .unwrap_or_else(|| estimate_background(image));
-    let threshold = match cfg.threshold {
-        Threshold::Auto => background.auto_threshold::<P>(),
-        Threshold::Fixed(level) => level,
-        Threshold::AboveBackground(contrast) => background.threshold_above::<P>(contrast),
-    };
+    let threshold = cfg.threshold.level::<P>(&background);
     if threshold >= P::FULL_SCALE {
         return Ok(Vec::new());
     }

@@ -720,11 +720,11 @@ pub fn recover_tip_in_tool(
     trajectory: &Trajectory,
     tolerance_mm: f64,
 ) -> Result<Point3, SmoothError> {
-    let mut with_pose = trajectory
+    let first_pose = trajectory
         .samples
         .iter()
-        .filter_map(|s| s.pose.as_ref().map(|p| (s.frame, p)));
-    let Some((first_frame, first)) = with_pose.next() else {
+        .find_map(|s| s.pose.as_ref().map(|p| (s.frame, p)));
+    let Some((first_frame, first)) = first_pose else {
         return Err(SmoothError::Empty {
             samples: trajectory.len(),
             poses: 0,

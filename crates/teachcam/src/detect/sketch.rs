@@ -60,20 +60,8 @@ impl Sketch {
     #[must_use]
     pub fn of(image: &GrayFrame, cfg: &DetectConfig) -> Self {
         match image {
-            GrayFrame::Eight(i) => {
-                let (sketch, boxes) = sketch_view(GrayView::new(i), cfg);
-                Self {
-                    boxes: Boxes::Eight(boxes),
-                    ..sketch
-                }
-            }
-            GrayFrame::Sixteen(i) => {
-                let (sketch, boxes) = sketch_view(GrayView::new(i), cfg);
-                Self {
-                    boxes: Boxes::Sixteen(boxes),
-                    ..sketch
-                }
-            }
+            GrayFrame::Eight(i) => sketch_view(GrayView::new(i), cfg, Boxes::Eight),
+            GrayFrame::Sixteen(i) => sketch_view(GrayView::new(i), cfg, Boxes::Sixteen),
         }
     }
 
@@ -85,12 +73,6 @@ impl Sketch {
             Boxes::Eight(b) => b.iter().map(|(_, p)| each + p.len()).sum(),
             Boxes::Sixteen(b) => b.iter().map(|(_, p)| each + 2 * p.len()).sum(),
         }
-    }
-
-    /// `(width, height)` of the frame.
-    #[must_use]
-    pub fn dimensions(&self) -> (u32, u32) {
-        (self.width as u32, self.height as u32)
     }
 
     /// What [`super::detect`] gives on the frame with `cfg`.
@@ -132,13 +114,9 @@ impl Sketch {
 
     /// `Ok` when every pixel a detection with `cfg` reads was kept.
     fn check(&self, cfg: &DetectConfig) -> Result<(), DetectError> {
-        let level = match cfg.threshold {
-            Threshold::Auto => self.auto_level(),
-            Threshold::Fixed(t) => t,
-            Threshold::AboveBackground(c) => match self.boxes {
-                Boxes::Eight(_) => self.background.threshold_above::<u8>(c),
-                Boxes::Sixteen(_) => self.background.threshold_above::<u16>(c),
-            },
+        let level = match self.boxes {
+            Boxes::Eight(_) => cfg.threshold.level::<u8>(&self.background),
+            Boxes::Sixteen(_) => cfg.threshold.level::<u16>(&self.background),
         };
         if level >= self.level && window_growth_px(cfg) <= self.margin_px {
             Ok(())
@@ -147,13 +125,6 @@ impl Sketch {
                 level,
                 kept_level: self.level,
             })
-        }
-    }
-
-    fn auto_level(&self) -> u32 {
-        match self.boxes {
-            Boxes::Eight(_) => self.background.auto_threshold::<u8>(),
-            Boxes::Sixteen(_) => self.background.auto_threshold::<u16>(),
         }
     }
 
@@ -207,11 +178,12 @@ thread_local! {
     static SCRATCH_16: RefCell<Vec<u16>> = const { RefCell::new(Vec::new()) };
 }
 
-/// The sketch of `image` (its boxes returned beside an empty [`Boxes`]).
+/// The sketch of `image`, its boxes kept as `kept` makes them.
 fn sketch_view<P: Intensity>(
     image: GrayView<'_, P>,
     cfg: &DetectConfig,
-) -> (Sketch, Vec<(PixelBox, Vec<P>)>) {
+    kept: impl FnOnce(Vec<(PixelBox, Vec<P>)>) -> Boxes,
+) -> Sketch {
     let background = estimate_background(image);
     let auto = background.auto_threshold::<P>();
     let level = match cfg.threshold {
@@ -220,17 +192,6 @@ fn sketch_view<P: Intensity>(
     };
     let margin_px = window_growth_px(cfg);
     let (width, height) = (image.width, image.height);
-    let whole = || {
-        vec![(
-            PixelBox {
-                x_min: 0,
-                y_min: 0,
-                x_max: width.saturating_sub(1) as u32,
-                y_max: height.saturating_sub(1) as u32,
-            },
-            image.pixels.to_vec(),
-        )]
-    };
     let boxes = if width == 0 || height == 0 || level >= P::FULL_SCALE {
         Vec::new()
     } else {
@@ -248,18 +209,26 @@ fn sketch_view<P: Intensity>(
                     (grown, copy_box(image, grown))
                 })
                 .collect(),
-            None => whole(),
+            // More regions than allowed: the frame kept whole.
+            None => vec![(
+                PixelBox {
+                    x_min: 0,
+                    y_min: 0,
+                    x_max: width as u32 - 1,
+                    y_max: height as u32 - 1,
+                },
+                image.pixels.to_vec(),
+            )],
         }
     };
-    let sketch = Sketch {
+    Sketch {
         width,
         height,
         background,
         level,
         margin_px,
-        boxes: Boxes::Eight(Vec::new()),
-    };
-    (sketch, boxes)
+        boxes: kept(boxes),
+    }
 }
 
 /// The pixels of `b`, row after row.

@@ -506,43 +506,43 @@ fn from_sketches<'s, B: FromSketch>(
     setups: &[CameraSetup],
 ) -> Result<Vec<DetectedSet<B>>, PipelineError> {
     let sets: Vec<&DetectedSet<Sketch>> = sets.collect();
-    let detected: Vec<Result<DetectedSet<B>, PipelineError>> =
-        sets.par_iter()
-            .map(|set| {
-                let cameras =
-                    set.cameras
-                        .iter()
-                        .zip(setups)
-                        .map(|(camera, setup)| {
-                            camera
-                                .as_ref()
-                                .map(|c| {
-                                    let blobs = B::from_sketch(&c.blobs, &setup.detect).map_err(
-                                        |source| PipelineError::Detect {
-                                            camera: c.camera.clone(),
-                                            frame: c.frame,
-                                            source,
-                                        },
-                                    )?;
-                                    Ok(CameraDetections {
-                                        camera: c.camera.clone(),
-                                        frame: c.frame,
-                                        time_s: c.time_s,
-                                        blobs,
-                                    })
-                                })
-                                .transpose()
-                        })
-                        .collect::<Result<_, PipelineError>>()?;
-                Ok(DetectedSet {
-                    index: set.index,
-                    time_s: set.time_s,
-                    exposed_at: set.exposed_at,
-                    cameras,
-                })
-            })
-            .collect();
+    let detected: Vec<Result<DetectedSet<B>, PipelineError>> = sets
+        .par_iter()
+        .map(|set| from_sketch_set(set, setups))
+        .collect();
     detected.into_iter().collect()
+}
+
+/// One set detected from its cameras' sketches with `setups`.
+fn from_sketch_set<B: FromSketch>(
+    set: &DetectedSet<Sketch>,
+    setups: &[CameraSetup],
+) -> Result<DetectedSet<B>, PipelineError> {
+    let mut cameras = Vec::with_capacity(set.cameras.len());
+    for (camera, setup) in set.cameras.iter().zip(setups) {
+        let Some(c) = camera else {
+            cameras.push(None);
+            continue;
+        };
+        let blobs =
+            B::from_sketch(&c.blobs, &setup.detect).map_err(|source| PipelineError::Detect {
+                camera: c.camera.clone(),
+                frame: c.frame,
+                source,
+            })?;
+        cameras.push(Some(CameraDetections {
+            camera: c.camera.clone(),
+            frame: c.frame,
+            time_s: c.time_s,
+            blobs,
+        }));
+    }
+    Ok(DetectedSet {
+        index: set.index,
+        time_s: set.time_s,
+        exposed_at: set.exposed_at,
+        cameras,
+    })
 }
 
 /// Detects every frame of the recording folder `root` with `setups` and limits measured from
