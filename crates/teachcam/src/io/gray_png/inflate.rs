@@ -29,6 +29,10 @@ const TABLE_SIZE: usize = 1 << TABLE_BITS;
 const TABLE_MASK: u64 = (1 << TABLE_BITS) - 1;
 /// Literals at most in one look-up (four bytes are written at a time).
 const RUN_MAX: u32 = 4;
+/// Bits a refill leaves in the buffer at least ([`Bits::refill`]).
+const REFILL_BITS: u32 = 56;
+/// Run look-ups at most between two refills: six of 9 bits.
+const LOOKUPS_MAX: usize = 6;
 
 /// Length symbols 257–285: base length and extra bits (RFC 1951 §3.2.5).
 const LENGTH_BASE: [u16; 29] = [
@@ -208,6 +212,8 @@ struct LiteralRuns {
     ends: Box<[u32; TABLE_SIZE]>,
     /// The mask of an index's bits.
     mask: u64,
+    /// Look-ups the buffer holds after a refill: `REFILL_BITS` / the index's bits.
+    per_refill: usize,
 }
 
 /// The end of a literal a run does not have: more than any room, and below a byte's high bit.
@@ -220,6 +226,7 @@ impl LiteralRuns {
             bytes: Box::new([0; TABLE_SIZE]),
             ends: Box::new([0; TABLE_SIZE]),
             mask: TABLE_MASK,
+            per_refill: 0,
         }
     }
 
@@ -241,6 +248,7 @@ impl LiteralRuns {
     fn build(&mut self, single: &SymbolTable, index_bits: u32) {
         const LANES: u32 = 0x01_01_01;
         self.mask = (1 << index_bits) - 1;
+        self.per_refill = ((REFILL_BITS / index_bits) as usize).min(LOOKUPS_MAX);
         for index in 0..1usize << index_bits {
             let entry = single[index];
             let (symbol, length) = (u32::from(entry >> 4), u32::from(entry & 15));
@@ -360,6 +368,14 @@ impl Bits<'_> {
     fn consume(&mut self, bits: u32) {
         self.buffer >>= bits;
         self.count -= bits;
+    }
+
+    /// Drops as many bits of the buffer as `value`'s low six bits say, leaving `count` to the
+    /// caller. The shift takes `value` itself (a 64-bit shift uses its count's low six bits):
+    /// the next look-up's index does not wait on a mask.
+    #[inline(always)]
+    fn shift_buffer(&mut self, value: u32) {
+        self.buffer = self.buffer.wrapping_shr(value);
     }
 
     /// The next `bits` bits as a number (at most 13 here; the caller refilled).
@@ -566,6 +582,22 @@ fn inflate_block<P: FnMut(&[u8])>(
     stream: &mut Bits<'_>,
     tables: &Tables,
     out: &mut [u8],
+    written: usize,
+    report: &mut Report<'_, P>,
+) -> Option<usize> {
+    // The look-ups a refill holds, a constant in each loop (unrolled).
+    if tables.runs.per_refill >= LOOKUPS_MAX {
+        inflate_block_by::<LOOKUPS_MAX, P>(stream, tables, out, written, report)
+    } else {
+        inflate_block_by::<4, P>(stream, tables, out, written, report)
+    }
+}
+
+/// [`inflate_block`] with `PER_REFILL` run look-ups a refill.
+fn inflate_block_by<const PER_REFILL: usize, P: FnMut(&[u8])>(
+    stream: &mut Bits<'_>,
+    tables: &Tables,
+    out: &mut [u8],
     mut written: usize,
     report: &mut Report<'_, P>,
 ) -> Option<usize> {
@@ -578,24 +610,30 @@ fn inflate_block<P: FnMut(&[u8])>(
             report.next = written.saturating_add(report.piece);
         }
         bits.refill();
-        // Literal runs: four look-ups a refill (4 × 12 ≤ 56 bits), each writing four bytes
-        // (its run, then bytes the next run overwrites), while 16 + 1 bytes are left.
-        if let Some(window) = out.get_mut(written..written + 4 * RUN_MAX as usize + 1) {
-            let (mut lookups, mut filled) = (0, 0);
-            while lookups < 4 {
+        // Literal runs: as many look-ups a refill as the 56 bits hold (four of 12 bits, six
+        // of 9), each writing four bytes (its run, then bytes the next run overwrites), while
+        // 24 + 1 bytes are left.
+        if let Some(window) = out.get_mut(written..written + 4 * PER_REFILL + 1) {
+            // The look-ups' `meta` summed: the runs' bits (at most 54) stay in the low six
+            // bits, their literal counts less one gather above. The buffer shifts by each
+            // `meta` unmasked ([`Bits::shift_buffer`]); the count follows after the loop.
+            let (mut lookups, mut taken) = (0, 0u32);
+            while lookups < PER_REFILL {
                 let index = tables.runs.index(bits);
                 let meta = u32::from(tables.runs.meta[index]);
                 if meta == 0 {
                     break;
                 }
                 let literals = tables.runs.bytes[index].to_le_bytes();
-                window[filled..filled + 4].copy_from_slice(&literals);
-                filled += (meta >> 6) as usize + 1;
-                bits.consume(meta & 63);
+                let at = (taken >> 6) as usize + lookups;
+                window[at..at + 4].copy_from_slice(&literals);
+                bits.shift_buffer(meta);
+                taken += meta;
                 lookups += 1;
             }
-            written += filled;
-            if lookups == 4 {
+            bits.count -= taken & 63;
+            written += (taken >> 6) as usize + lookups;
+            if lookups == PER_REFILL {
                 continue;
             }
             bits.refill();
