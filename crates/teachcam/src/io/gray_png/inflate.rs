@@ -83,6 +83,9 @@ enum Completeness {
 /// same memory (a stream's blocks share one set of tables).
 struct Code {
     table: Box<SymbolTable>,
+    /// The mask of the bits `table` is built for: its longest code's (at most 12), or more
+    /// when asked ([`Code::build`]); the entries past them are stale.
+    mask: usize,
     /// Codes of each length.
     count: [u16; MAX_CODE_BITS + 1],
     /// The symbols in the order of their codes (by length, then symbol).
@@ -96,6 +99,7 @@ impl Code {
     fn empty() -> Self {
         Self {
             table: Box::new([0; TABLE_SIZE]),
+            mask: 0,
             count: [0; MAX_CODE_BITS + 1],
             sorted: [0; LITLEN_CODES],
         }
@@ -108,8 +112,11 @@ impl Code {
     /// 2^n entries, each code of `n` bits is written once at its (bit-reversed) index, and
     /// going to `n + 1` bits copies the table after itself. A code's entry then repeats
     /// under every pattern of the bits after it, for about 4096 copied entries in all
-    /// instead of one loop a symbol over its table stride.
-    fn build(&mut self, lengths: &[u8], completeness: Completeness) -> Option<()> {
+    /// instead of one loop a symbol over its table stride. The doubling stops at the longest
+    /// code (or at 12 bits), but not before `least_bits`: a distance code of zlib's `Z_RLE`
+    /// blocks has one code, the code length code at most 7 bits, and 80 blocks a frame
+    /// built each to 4096 entries copied more than the frame's size.
+    fn build(&mut self, lengths: &[u8], completeness: Completeness, least_bits: u32) -> Option<()> {
         let mut count = [0u16; MAX_CODE_BITS + 1];
         for &length in lengths {
             *count.get_mut(usize::from(length))? += 1;
@@ -140,10 +147,15 @@ impl Code {
                 *slot += 1;
             }
         }
+        let longest = (1..=MAX_CODE_BITS)
+            .rev()
+            .find(|&n| count[n] > 0)
+            .unwrap_or(0);
+        let top = (longest as u32).clamp(least_bits.max(1), TABLE_BITS);
         let table = &mut self.table;
         table[0] = 0;
         let (mut size, mut code, mut next) = (1usize, 0u32, 0usize);
-        for bits in 1..=TABLE_BITS {
+        for bits in 1..=top {
             table.copy_within(0..size, size);
             size <<= 1;
             for &symbol in &self.sorted[next..next + usize::from(count[bits as usize])] {
@@ -157,6 +169,7 @@ impl Code {
             code <<= 1;
         }
         self.count = count;
+        self.mask = size - 1;
         Some(())
     }
 
@@ -170,7 +183,7 @@ impl Code {
     /// 15 bits), without consuming it; `None` where no code starts.
     #[inline(always)]
     fn peek(&self, bits: &Bits<'_>) -> Option<(usize, u32)> {
-        let entry = self.table[bits.index()];
+        let entry = self.table[bits.index() & self.mask];
         if entry != 0 {
             return Some((usize::from(entry >> 4), u32::from(entry & 15)));
         }
@@ -246,43 +259,47 @@ impl LiteralRuns {
     /// and a mispredicted branch an index would cost more than the rest of its building):
     /// the ends that fit are counted a byte lane each.
     fn build(&mut self, single: &SymbolTable, index_bits: u32) {
-        const LANES: u32 = 0x01_01_01;
         self.mask = (1 << index_bits) - 1;
         self.per_refill = ((REFILL_BITS / index_bits) as usize).min(LOOKUPS_MAX);
-        for index in 0..1usize << index_bits {
+        let (ends, bytes) = Self::decode_whole(single, 0, index_bits);
+        (self.meta[0], self.bytes[0], self.ends[0]) = Self::run(single[0], index_bits, ends, bytes);
+        for index in 1..1usize << index_bits {
             let entry = single[index];
-            let (symbol, length) = (u32::from(entry >> 4), u32::from(entry & 15));
-            // Not a literal whose code fits: no run (computed on as if one was).
-            let literal = length != 0 && symbol < 256 && length <= index_bits;
-            let length = if literal { length } else { index_bits };
+            // (A length of 0, no code, takes the whole index: `rest` is 0.)
+            let length = u32::from(entry & 15).max(1).min(index_bits);
             let rest = index >> length;
-            let (rest_ends, rest_bytes) = if rest == index {
-                Self::decode_whole(single, index, index_bits)
-            } else {
-                (self.ends[rest], self.bytes[rest])
-            };
-            // The later literals whose codes end within the bits this index has left: a
-            // lane's high bit stays set where `room - end` is not negative. The ends
-            // increase, so the lanes that fit are the lowest; their count is the sum of the
-            // lanes' bits, which the multiplication gathers in the third lane.
-            let room = index_bits - length;
-            let high = 0x80 * LANES;
-            let fits = (((room * LANES) | high) - (rest_ends & 0xff_ff_ff)) & high;
-            let taken = (((fits >> 7) * LANES) >> 16) & 3;
-            let kept = (1u32 << (8 * taken)) - 1;
-            let later = ((rest_ends + length * LANES) & kept) | ((NO_END * LANES) & !kept);
-            let ends = length | later << 8;
-            let bits = (ends >> (8 * taken)) & 0xff;
-            let bytes =
-                symbol | ((u64::from(rest_bytes) << 8) & ((1 << (8 * taken + 8)) - 1)) as u32;
-            let (meta, ends) = if literal {
-                (taken << 6 | bits, ends)
-            } else {
-                (0, NO_END * LANES)
-            };
-            self.meta[index] = meta as u8;
-            self.bytes[index] = bytes;
-            self.ends[index] = ends;
+            let (rest_ends, rest_bytes) = (self.ends[rest], self.bytes[rest]);
+            (self.meta[index], self.bytes[index], self.ends[index]) =
+                Self::run(entry, index_bits, rest_ends, rest_bytes);
+        }
+    }
+
+    /// An index's `meta`, literals and ends, from its `single` entry and the run after its
+    /// first code (its ends and literals).
+    #[inline(always)]
+    fn run(entry: u16, index_bits: u32, rest_ends: u32, rest_bytes: u32) -> (u8, u32, u32) {
+        const LANES: u32 = 0x01_01_01;
+        let (symbol, length) = (u32::from(entry >> 4), u32::from(entry & 15));
+        // Not a literal whose code fits: no run (computed on as if one was).
+        let literal = length != 0 && symbol < 256 && length <= index_bits;
+        let length = if literal { length } else { index_bits };
+        // The later literals whose codes end within the bits this index has left: a
+        // lane's high bit stays set where `room - end` is not negative. The ends
+        // increase, so the lanes that fit are the lowest; their count is the sum of the
+        // lanes' bits, which the multiplication gathers in the third lane.
+        let room = index_bits - length;
+        let high = 0x80 * LANES;
+        let fits = (((room * LANES) | high) - (rest_ends & 0xff_ff_ff)) & high;
+        let taken = (((fits >> 7) * LANES) >> 16) & 3;
+        let kept = (1u32 << (8 * taken)) - 1;
+        let later = ((rest_ends + length * LANES) & kept) | ((NO_END * LANES) & !kept);
+        let ends = length | later << 8;
+        let bits = (ends >> (8 * taken)) & 0xff;
+        let bytes = symbol | ((u64::from(rest_bytes) << 8) & ((1 << (8 * taken + 8)) - 1)) as u32;
+        if literal {
+            ((taken << 6 | bits) as u8, bytes, ends)
+        } else {
+            (0, bytes, NO_END * LANES)
         }
     }
 
@@ -515,9 +532,11 @@ impl Tables {
         distance_lengths: &[u8],
         run_bits: u32,
     ) -> Option<()> {
-        self.litlen.build(litlen_lengths, Completeness::Complete)?;
+        // The runs are built from the whole literal/length table.
+        self.litlen
+            .build(litlen_lengths, Completeness::Complete, TABLE_BITS)?;
         self.distance
-            .build(distance_lengths, Completeness::SingleAllowed)?;
+            .build(distance_lengths, Completeness::SingleAllowed, 1)?;
         self.runs.build(&self.litlen.table, run_bits);
         Some(())
     }
@@ -547,7 +566,7 @@ impl Tables {
             code_length_lengths[symbol] = bits.take(3) as u8;
         }
         let code_lengths = &mut self.code_lengths;
-        code_lengths.build(&code_length_lengths, Completeness::Complete)?;
+        code_lengths.build(&code_length_lengths, Completeness::Complete, 1)?;
         let mut lengths = [0u8; LITLEN_SYMBOLS + DISTANCE_SYMBOLS];
         let declared = litlen_count + distance_count;
         let mut i = 0;
