@@ -263,8 +263,8 @@ impl LiteralRuns {
         self.per_refill = ((REFILL_BITS / index_bits) as usize).min(LOOKUPS_MAX);
         let (ends, bytes) = Self::decode_whole(single, 0, index_bits);
         (self.meta[0], self.bytes[0], self.ends[0]) = Self::run(single[0], index_bits, ends, bytes);
-        for index in 1..1usize << index_bits {
-            let entry = single[index];
+        let size = 1usize << index_bits;
+        for (index, &entry) in single.iter().enumerate().take(size).skip(1) {
             // (A length of 0, no code, takes the whole index: `rest` is 0.)
             let length = u32::from(entry & 15).max(1).min(index_bits);
             let rest = index >> length;
