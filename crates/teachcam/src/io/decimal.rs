@@ -50,26 +50,28 @@ pub fn push_fixed(out: &mut Vec<u8>, value: f64, decimals: usize) {
         let _ = write!(out, "{value:.decimals$}");
         return;
     };
-    if value.is_sign_negative() {
-        out.push(b'-');
-    }
     // `scaled < 2^52 < 10^16`: its 16 digits (leading zeros included) as two independent
     // halves of 8, which run side by side; a point at `decimals ≤ 15` places from the end
-    // leaves at least one digit before it.
-    let mut digits = [b'0'; 16];
+    // leaves at least one digit before it. The text is put together in copies of a fixed
+    // size (no loop, no branch on the number's length) and pushed at once.
+    let mut digits = [b'0'; 32];
     let (high, low) = (scaled / 100_000_000, scaled % 100_000_000);
     push_eight_digits(&mut digits[..8], high as u32);
-    push_eight_digits(&mut digits[8..], low as u32);
-    let point = digits.len() - decimals;
-    let first = digits[..point - 1]
-        .iter()
-        .position(|&d| d != b'0')
-        .unwrap_or(point - 1);
-    out.extend_from_slice(&digits[first..point]);
+    push_eight_digits(&mut digits[8..16], low as u32);
+    let point = 16 - decimals;
+    let significant = scaled.checked_ilog10().map_or(1, |l| l as usize + 1);
+    let whole = significant.saturating_sub(decimals).max(1);
+    let first = point - whole;
+    let sign = usize::from(value.is_sign_negative());
+    let mut text = [b'-'; 40];
+    text[sign..sign + 16].copy_from_slice(&digits[first..first + 16]);
+    let mut length = sign + whole;
     if decimals > 0 {
-        out.push(b'.');
-        out.extend_from_slice(&digits[point..]);
+        text[length] = b'.';
+        text[length + 1..length + 17].copy_from_slice(&digits[point..point + 16]);
+        length += 1 + decimals;
     }
+    out.extend_from_slice(&text[..length]);
 }
 
 /// The eight decimal digits of `value < 10^8`, leading zeros included, two at a time.
@@ -95,14 +97,16 @@ const DIGIT_PAIRS: &[u8; 200] = b"\
 /// `|value| · 10^decimals` rounded to the nearest integer, when `f64` arithmetic decides it
 /// (see the module docs); `None` sends the value to the standard formatter.
 fn fixed_digits(value: f64, decimals: usize) -> Option<u64> {
-    let unit = *POW10.get(decimals)?;
+    // (Through `i64`, which every number here fits: one instruction a conversion, where
+    // `u64`'s take several on x86-64.)
+    let unit = *POW10.get(decimals)? as i64;
     let scaled = value.abs() * unit as f64;
     // NaN too: it is not finite.
     if !scaled.is_finite() || scaled >= TWO_POW_52 {
         return None;
     }
     // Truncation is the floor here (`0 ≤ scaled < 2^52`), and a conversion, not a libm call.
-    let floor = scaled as u64;
+    let floor = scaled as i64;
     // Exact: `floor` is 0, or within a factor 2 of `scaled` (Sterbenz).
     let fraction = scaled - floor as f64;
     // One ulp of `scaled` bounds twice the product's rounding error; `fraction - 0.5` is exact
@@ -110,7 +114,7 @@ fn fixed_digits(value: f64, decimals: usize) -> Option<u64> {
     if (fraction - 0.5).abs() <= scaled * f64::EPSILON {
         return None;
     }
-    Some(floor + u64::from(fraction > 0.5))
+    Some(floor.unsigned_abs() + u64::from(fraction > 0.5))
 }
 
 /// `text` as an `f64`, accepting what `str::parse::<f64>` accepts (decimal or exponent

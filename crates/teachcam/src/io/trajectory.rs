@@ -432,11 +432,23 @@ fn split_fields<'a>(row: &'a str, fields: &mut Vec<&'a str>) {
     for (i, b) in row.bytes().enumerate() {
         if b == b',' {
             // A comma is one byte: `start..i` lies on character boundaries.
-            fields.push(row[start..i].trim());
+            fields.push(trimmed(&row[start..i]));
             start = i + 1;
         }
     }
-    fields.push(row[start..].trim());
+    fields.push(trimmed(&row[start..]));
+}
+
+/// `field` without the white space around it, looked for only when its first or last byte
+/// may be some (every white space character is a byte up to a space, or not ASCII).
+fn trimmed(field: &str) -> &str {
+    let plain = |b: &u8| (b'!'..=b'~').contains(b);
+    let bytes = field.as_bytes();
+    if bytes.first().is_some_and(plain) && bytes.last().is_some_and(plain) {
+        field
+    } else {
+        field.trim()
+    }
 }
 
 fn number(fields: &[&str], column: usize) -> Result<f64, String> {
@@ -799,6 +811,13 @@ mod tests {
         fn parser_never_panics_on_mangled_rows(row in "[0-9.,eNa-]{0,120}") {
             let text = format!("{}\n{row}\n", CONTRACT_COLUMNS.join(","));
             let _ = parse_trajectory(Path::new("t.csv"), &text);
+        }
+
+        #[test]
+        fn a_field_is_trimmed_as_str_trim_trims_it(
+            field in "[ \t\u{a0}\u{2003}\u{85}]{0,2}[0-9.e \u{a0}-]{0,8}[ \t\r\u{a0}\u{3000}]{0,2}"
+        ) {
+            prop_assert_eq!(trimmed(&field), field.trim());
         }
     }
 }
