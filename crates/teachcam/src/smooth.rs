@@ -270,16 +270,20 @@ pub fn check_timing(
     time_step_tolerance: f64,
 ) -> Result<Timing, SmoothError> {
     let samples = &trajectory.samples;
-    let empty = SmoothError::Empty {
+    let empty = || SmoothError::Empty {
         samples: samples.len(),
         poses: samples.iter().filter(|s| s.pose.is_some()).count(),
     };
     let (Some(first), Some(last)) = (samples.first(), samples.last()) else {
-        return Err(empty);
+        return Err(empty());
     };
     if samples.len() < 2 {
-        return Err(empty);
+        return Err(empty());
     }
+    // One pass over the samples (they are large: the pass is the memory's time): a missing
+    // row anywhere is named before a time step that is not uniform.
+    let mean_step_s = (last.time_s - first.time_s) / (samples.len() - 1) as f64;
+    let mut not_uniform = None;
     for w in samples.windows(2) {
         if w[1].frame.0 != w[0].frame.0 + 1 {
             return Err(SmoothError::MissingRow {
@@ -287,18 +291,18 @@ pub fn check_timing(
                 next: w[1].frame.0,
             });
         }
-    }
-    let mean_step_s = (last.time_s - first.time_s) / (samples.len() - 1) as f64;
-    for w in samples.windows(2) {
         let step_s = w[1].time_s - w[0].time_s;
         let uniform = (step_s - mean_step_s).abs() <= time_step_tolerance * mean_step_s;
-        if !(step_s.is_finite() && step_s > 0.0 && uniform) {
-            return Err(SmoothError::NonUniformTime {
+        if !(step_s.is_finite() && step_s > 0.0 && uniform) && not_uniform.is_none() {
+            not_uniform = Some(SmoothError::NonUniformTime {
                 frame: w[1].frame.0,
                 step_s,
                 mean_step_s,
             });
         }
+    }
+    if let Some(error) = not_uniform {
+        return Err(error);
     }
     let rate_hz = snapped_rate_hz(1.0 / mean_step_s, last.time_s - first.time_s);
     Ok(Timing {
@@ -386,29 +390,27 @@ pub struct RunSeries {
 /// by cubic splines with `fill_ends` over the measured samples.
 #[must_use]
 pub fn run_series(samples: &[Sample], fill_ends: SplineEnds) -> RunSeries {
-    let measured: Vec<(usize, &ToolPose)> = samples
-        .iter()
-        .enumerate()
-        .filter_map(|(i, s)| s.pose.as_ref().map(|p| (i, p)))
-        .collect();
-    let measured_rotations: Vec<UnitQuaternion<f64>> = measured
-        .iter()
-        .map(|(_, p)| p.world_from_tool.rotation)
-        .collect();
+    // The measured samples' indices, rotations and positions in one pass over the samples.
+    let mut measured: Vec<usize> = Vec::with_capacity(samples.len());
+    let mut measured_rotations = Vec::with_capacity(samples.len());
+    let mut columns: [Vec<f64>; 6] = std::array::from_fn(|_| Vec::with_capacity(samples.len()));
+    for (i, sample) in samples.iter().enumerate() {
+        if let Some(pose) = &sample.pose {
+            measured.push(i);
+            measured_rotations.push(pose.world_from_tool.rotation);
+            for (column, &value) in columns
+                .iter_mut()
+                .zip(&pose.world_from_tool.translation.vector)
+            {
+                column.push(value);
+            }
+        }
+    }
     let unrolled = rotation::unroll(&measured_rotations);
-    let mut columns: [Vec<f64>; 6] = Default::default();
-    for (c, column) in columns.iter_mut().enumerate() {
-        *column = measured
-            .iter()
-            .zip(&unrolled)
-            .map(|((_, p), v)| {
-                if c < 3 {
-                    p.world_from_tool.translation.vector[c]
-                } else {
-                    v[c - 3]
-                }
-            })
-            .collect();
+    for v in &unrolled {
+        for (column, &value) in columns[3..].iter_mut().zip(v) {
+            column.push(value);
+        }
     }
     if measured.len() == samples.len() {
         return RunSeries {
@@ -416,7 +418,7 @@ pub fn run_series(samples: &[Sample], fill_ends: SplineEnds) -> RunSeries {
             rotations: measured_rotations,
         };
     }
-    let times: Vec<f64> = measured.iter().map(|(i, _)| samples[*i].time_s).collect();
+    let times: Vec<f64> = measured.iter().map(|&i| samples[i].time_s).collect();
     let splines: Vec<Option<CubicSpline>> = columns
         .iter()
         .map(|y| CubicSpline::new(&times, y, fill_ends).ok())
@@ -425,7 +427,7 @@ pub fn run_series(samples: &[Sample], fill_ends: SplineEnds) -> RunSeries {
     let mut filled_rotations = Vec::with_capacity(samples.len());
     let mut next_measured = 0;
     for (i, sample) in samples.iter().enumerate() {
-        if next_measured < measured.len() && measured[next_measured].0 == i {
+        if next_measured < measured.len() && measured[next_measured] == i {
             for (f, c) in filled.iter_mut().zip(&columns) {
                 f.push(c[next_measured]);
             }

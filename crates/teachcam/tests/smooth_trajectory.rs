@@ -294,6 +294,12 @@ fn bad_input_is_refused_with_the_frame() {
     let mut skipped = good.clone();
     skipped.samples.remove(20);
     assert!(message(&skipped, &lowpass(5.0, 2)).contains("frame 21 follows frame 19"));
+    // A missing row is named before an uneven step, even one earlier in the file.
+    let mut both = skipped.clone();
+    both.samples[5].time_s += 0.004;
+    assert!(message(&both, &lowpass(5.0, 2)).contains("frame 21 follows frame 19"));
+    both.samples.insert(20, good.samples[20].clone());
+    assert!(message(&both, &lowpass(5.0, 2)).contains("frame 5"));
 
     let nyquist = message(&good, &lowpass(50.0, 2));
     assert!(nyquist.contains("Nyquist"), "{nyquist}");

@@ -15,6 +15,7 @@
 //! increment `log` takes the shortest rotation, `|θ| ≤ π`).
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use rayon::prelude::*;
 
 /// The rotation vector (axis × angle, radians, angle in `[0, π]`) of `q`, accurate near zero
 /// where `acos` of the scalar part loses digits.
@@ -51,12 +52,18 @@ pub fn exp(v: &Vector3<f64>) -> UnitQuaternion<f64> {
 /// Unrolls a path of rotations: `v_0 = 0`, `v_k = v_{k-1} + log(R_{k-1}⁻¹ R_k)`.
 #[must_use]
 pub fn unroll(rotations: &[UnitQuaternion<f64>]) -> Vec<Vector3<f64>> {
+    // The steps' logarithms side by side (each stands alone), summed in order.
+    let steps: Vec<Vector3<f64>> = rotations
+        .par_windows(2)
+        .map(|w| log(&(w[0].inverse() * w[1])))
+        .collect();
     let mut out = Vec::with_capacity(rotations.len());
     let mut sum = Vector3::zeros();
-    for (k, r) in rotations.iter().enumerate() {
-        if k > 0 {
-            sum += log(&(rotations[k - 1].inverse() * r));
-        }
+    if !rotations.is_empty() {
+        out.push(sum);
+    }
+    for step in &steps {
+        sum += step;
         out.push(sum);
     }
     out
