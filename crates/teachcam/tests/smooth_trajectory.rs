@@ -298,7 +298,7 @@ fn bad_input_is_refused_with_the_frame() {
     let mut both = skipped.clone();
     both.samples[5].time_s += 0.004;
     assert!(message(&both, &lowpass(5.0, 2)).contains("frame 21 follows frame 19"));
-    both.samples.insert(20, good.samples[20].clone());
+    both.samples.insert(20, good.samples[20]);
     assert!(message(&both, &lowpass(5.0, 2)).contains("frame 5"));
 
     let nyquist = message(&good, &lowpass(50.0, 2));
