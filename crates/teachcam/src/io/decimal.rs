@@ -80,7 +80,7 @@ pub fn push_fixed(out: &mut Vec<u8>, value: f64, decimals: usize) {
 fn eight_digits(value: u32) -> u64 {
     let value = u64::from(value);
     // [abcd, efgh]: (x · 5243) >> 19 is x / 100 for x < 43 699.
-    let fours = value / 10_000 | (value % 10_000) << 32;
+    let fours = (value / 10_000) | ((value % 10_000) << 32);
     let high = ((fours * 5243) >> 19) & 0x0000_007f_0000_007f;
     let twos = high | (fours - 100 * high) << 16;
     // [ab, cd, ef, gh]: (x · 103) >> 10 is x / 10 for x < 179.
