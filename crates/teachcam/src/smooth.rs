@@ -398,7 +398,7 @@ pub fn run_series(samples: &[Sample], fill_ends: SplineEnds) -> RunSeries {
         if let Some(pose) = &sample.pose {
             measured.push(i);
             measured_rotations.push(pose.world_from_tool.rotation);
-            for (column, &value) in columns
+            for (column, &value) in columns[..3]
                 .iter_mut()
                 .zip(&pose.world_from_tool.translation.vector)
             {
