@@ -11,11 +11,13 @@
 //! still read: their status is `ok` where a pose is and `lost` where none is. Nothing that is
 //! not finite is ever written.
 
+use std::ops::Range;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
-use super::decimal::{parse_f64, push_fixed};
+use super::decimal::{TextBuffer, parse_f64};
 use super::{FileError, read_line_chunks, write_atomically_with};
 use crate::geometry::{FrameIndex, Point3, Quat, pose_from_parts};
 use crate::trajectory::{PoseSource, Sample, Status, ToolPose, Trajectory};
@@ -130,8 +132,9 @@ pub fn write_trajectory_csv(
             .zip(batch.par_chunks(ROWS_PER_BLOCK))
             .for_each(|(buffer, block)| {
                 buffer.clear();
+                let mut text = TextBuffer::new(buffer);
                 for (sample, q) in block {
-                    push_row(buffer, sample, *q);
+                    push_row(&mut text, sample, *q);
                 }
             });
         let blocks = batch.len().div_ceil(ROWS_PER_BLOCK);
@@ -153,12 +156,11 @@ fn push_header(out: &mut Vec<u8>) {
 
 /// One row: millimetres with 6 decimals, quaternions and seconds with 9 (nanoseconds: distinct
 /// and uniform up to `trajectory::MAX_SAMPLE_RATE_HZ`), exactly as `format!("{:.6}")` and
-/// `format!("{:.9}")` write them ([`push_fixed`]).
-fn push_row(out: &mut Vec<u8>, sample: &Sample, q: Option<&Quat>) {
-    let mut integer = itoa::Buffer::new();
-    out.extend_from_slice(integer.format(sample.frame.0).as_bytes());
-    out.push(b',');
-    push_fixed(out, sample.time_s, 9);
+/// `format!("{:.9}")` write them ([`TextBuffer::fixed`]).
+fn push_row(line: &mut TextBuffer<'_>, sample: &Sample, q: Option<&Quat>) {
+    line.integer(sample.frame.0);
+    line.byte(b',');
+    line.fixed(sample.time_s, 9);
     match (&sample.pose, q) {
         (Some(p), Some(q)) => {
             let t = p.world_from_tool.translation.vector;
@@ -176,36 +178,36 @@ fn push_row(out: &mut Vec<u8>, sample: &Sample, q: Option<&Quat>) {
                 (tip.z, 6),
             ];
             for (value, decimals) in numbers {
-                out.push(b',');
-                push_fixed(out, value, decimals);
+                line.byte(b',');
+                line.fixed(value, decimals);
             }
-            out.push(b',');
-            out.extend_from_slice(integer.format(p.markers).as_bytes());
-            out.push(b',');
-            push_fixed(out, p.rms_mm, 6);
+            line.byte(b',');
+            line.integer(p.markers);
+            line.byte(b',');
+            line.fixed(p.rms_mm, 6);
         }
-        _ => out.extend_from_slice(b",,,,,,,,,,,,"),
+        _ => line.bytes(b",,,,,,,,,,,,"),
     }
-    out.extend_from_slice(if sample.source == PoseSource::Filled {
+    line.bytes(if sample.source == PoseSource::Filled {
         b",1,"
     } else {
         b",0,"
     });
     if let Some(std) = sample.tip_std_mm {
-        push_fixed(out, std, 6);
+        line.fixed(std, 6);
     }
     let status = match sample.pose {
         Some(_) if sample.status == Status::Lost => Status::Degraded,
         Some(_) => sample.status,
         None => Status::Lost,
     };
-    out.push(b',');
-    out.extend_from_slice(status.name().as_bytes());
-    out.push(b',');
+    line.byte(b',');
+    line.bytes(status.name().as_bytes());
+    line.byte(b',');
     if let (Some(_), Some(cameras)) = (sample.pose, sample.cameras) {
-        out.extend_from_slice(integer.format(cameras).as_bytes());
+        line.integer(cameras);
     }
-    out.push(b'\n');
+    line.byte(b'\n');
 }
 
 /// Reads and checks a trajectory CSV: the contract's header, frames strictly increasing,
@@ -329,49 +331,51 @@ impl<'p> TrajectoryReader<'p> {
         Ok(count)
     }
 
-    /// As [`Self::lines`], the text cut at line breaks into one part per thread, read side by
-    /// side and joined in order. On any error, in a part or where two parts meet, the text is
-    /// read again by [`Self::lines`], so the error is the one a reading in order meets first.
+    /// As [`Self::lines`], the rows parsed side by side, each sample written in place at the
+    /// end of `samples` (a part's own samples copied there afterwards took a quarter of the
+    /// reading: the copy, and the new memory's page faults, one thread at a time). The rows
+    /// are found first, in one part of the text per thread. On any error, in a row or in the
+    /// order of frames and times, the text is read again by [`Self::lines`], so the error is
+    /// the one a reading in order meets first.
     fn lines_side_by_side(&mut self, first_line: usize, text: &str) -> Result<usize, FileError> {
         let Some(layout) = self.layout else {
             return self.lines(first_line, text);
         };
-        let path = self.path;
-        let parts: Vec<Result<(Vec<Sample>, usize), FileError>> =
-            split_at_lines(text, rayon::current_num_threads())
-                .into_par_iter()
-                .map(|part| {
-                    let mut reader = TrajectoryReader {
-                        path,
-                        size_bytes: part.len(),
-                        layout: Some(layout),
-                        samples: Vec::new(),
-                    };
-                    let count = reader.lines(first_line, part)?;
-                    Ok((reader.samples, count))
-                })
-                .collect();
-        let Ok(parts) = parts.into_iter().collect::<Result<Vec<_>, _>>() else {
-            return self.lines(first_line, text);
-        };
-        let mut previous = self.samples.last();
-        for (samples, _) in &parts {
-            if let (Some(p), Some(first)) = (previous, samples.first()) {
-                if !(first.frame > p.frame && first.time_s > p.time_s) {
-                    return self.lines(first_line, text);
+        let mut offset = 0;
+        let parts: Vec<(usize, &str)> = split_at_lines(text, rayon::current_num_threads())
+            .into_iter()
+            .map(|part| {
+                offset += part.len();
+                (offset - part.len(), part)
+            })
+            .collect();
+        let parts: Vec<(Vec<Range<usize>>, usize)> = parts
+            .into_par_iter()
+            .map(|(offset, part)| row_ranges(offset, part))
+            .collect();
+        let count = parts.iter().map(|(_, lines)| lines).sum();
+        let rows: Vec<Range<usize>> = parts.into_iter().flat_map(|(rows, _)| rows).collect();
+        let start = self.samples.len();
+        let failed = AtomicBool::new(false);
+        self.samples.par_extend(rows.into_par_iter().map_init(
+            || Vec::with_capacity(layout.columns),
+            |fields, range| {
+                split_fields(text[range].trim_end_matches('\r'), fields);
+                if fields.len() == layout.columns {
+                    if let Ok(sample) = parse_row(fields, &layout) {
+                        return sample;
+                    }
                 }
-            }
-            previous = samples.last().or(previous);
-        }
-        let mut count = 0;
-        for (samples, lines) in parts {
-            if self.samples.capacity() == 0 {
-                let rows = samples.len().max(1);
-                self.samples
-                    .reserve(self.size_bytes / (text.len() / rows).max(1) + rows);
-            }
-            self.samples.extend_from_slice(&samples);
-            count += lines;
+                failed.store(true, Ordering::Relaxed);
+                Sample::gap(FrameIndex(0), 0.0)
+            },
+        ));
+        let increasing = self.samples[start.saturating_sub(1)..]
+            .par_windows(2)
+            .all(|pair| pair[1].frame > pair[0].frame && pair[1].time_s > pair[0].time_s);
+        if failed.load(Ordering::Relaxed) || !increasing {
+            self.samples.truncate(start);
+            return self.lines(first_line, text);
         }
         Ok(count)
     }
@@ -405,6 +409,27 @@ fn split_at_lines(text: &str, parts: usize) -> Vec<&str> {
     }
     pieces.push(rest);
     pieces
+}
+
+/// The byte ranges of the rows of `part` that are not blank, shifted by `offset` (where the
+/// part starts in the text), and how many lines it has, as [`TrajectoryReader::lines`]
+/// counts and cuts them (`str::lines`).
+fn row_ranges(offset: usize, part: &str) -> (Vec<Range<usize>>, usize) {
+    let mut rows = Vec::with_capacity(part.len() / 64);
+    let (mut at, mut lines) = (offset, 0);
+    for piece in part.split_inclusive('\n') {
+        lines += 1;
+        let line = piece
+            .strip_suffix('\n')
+            .map_or(piece, |l| l.strip_suffix('\r').unwrap_or(l));
+        // A row starts with its frame number; only a line starting otherwise may be blank.
+        let maybe_blank = line.as_bytes().first().is_none_or(|b| !b.is_ascii_digit());
+        if !(maybe_blank && line.trim().is_empty()) {
+            rows.push(at..at + line.len());
+        }
+        at += piece.len();
+    }
+    (rows, lines)
 }
 
 /// The layout a header gives, or `None` when it does not start with the contract's columns.
@@ -785,6 +810,49 @@ mod tests {
                 let expected = in_order(&changed).unwrap_err().to_string();
                 assert_eq!(side_by_side(&changed).unwrap_err().to_string(), expected);
             }
+        }
+    }
+
+    #[test]
+    fn blank_lines_and_line_ends_of_every_kind_are_read_side_by_side_as_in_order() {
+        // The rows are found before they are parsed side by side: blank lines (white space
+        // of any kind) are left out, CR LF ends cut as `str::lines` cuts them, a last line
+        // without a break kept, and the lines counted as a reading in order counts them.
+        let text = rows_text(60);
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        for (at, blank) in [
+            (5, ""),
+            (9, "   "),
+            (17, "\t\r"),
+            (30, " \u{a0}"),
+            (44, "\u{3000}"),
+        ] {
+            lines.insert(at, blank.to_string());
+        }
+        for at in [3, 20, 21, 50] {
+            lines[at].push('\r');
+        }
+        let path = Path::new("t.csv");
+        for ending in ["", "\n", "\r\n", "\n\n"] {
+            let text = lines.join("\n") + ending;
+            let mut in_order = TrajectoryReader::new(path, text.len());
+            let count = in_order.lines(1, &text).unwrap();
+            let (header, rows) = text.split_at(text.find('\n').unwrap() + 1);
+            for threads in [1, 2, 3, 7] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let mut reader = TrajectoryReader::new(path, text.len());
+                reader.lines(1, header).unwrap();
+                let side_count = pool.install(|| reader.lines_side_by_side(2, rows)).unwrap();
+                assert_eq!(side_count + 1, count, "{ending:?}, {threads} threads");
+                assert_eq!(
+                    reader.samples, in_order.samples,
+                    "{ending:?}, {threads} threads"
+                );
+            }
+            assert_eq!(in_order.samples.len(), 60);
         }
     }
 
