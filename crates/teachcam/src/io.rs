@@ -108,6 +108,40 @@ pub fn read_text(path: &Path) -> Result<String, FileError> {
     })
 }
 
+/// A thread's spare byte buffers of one kind (frame files, decoded pixels): memory given back
+/// after a frame ([`give_spare`]) and taken again for the next ([`take_spare`]), so that a
+/// frame's megabytes are not freed and faulted in anew each time (two frames of a pair freed
+/// together made the allocator hand the memory back to the system: a third of `track`'s
+/// time went to page faults).
+pub(crate) type Spares = std::thread::LocalKey<std::cell::RefCell<Vec<Vec<u8>>>>;
+
+/// An empty buffer: a spare of at least `capacity` bytes when the thread has one.
+pub(crate) fn take_spare(spares: &'static Spares, capacity: usize) -> Vec<u8> {
+    let spare = spares.try_with(|spares| {
+        let mut spares = spares.try_borrow_mut().ok()?;
+        let at = spares.iter().position(|b| b.capacity() >= capacity)?;
+        Some(spares.swap_remove(at))
+    });
+    match spare.ok().flatten() {
+        Some(mut buffer) => {
+            buffer.clear();
+            buffer
+        }
+        None => Vec::with_capacity(capacity),
+    }
+}
+
+/// Keeps `buffer` as a spare of the thread, when it has fewer than `keep`.
+pub(crate) fn give_spare(spares: &'static Spares, buffer: Vec<u8>, keep: usize) {
+    let _ = spares.try_with(|spares| {
+        if let Ok(mut spares) = spares.try_borrow_mut()
+            && spares.len() < keep
+        {
+            spares.push(buffer);
+        }
+    });
+}
+
 /// Bytes read at a time by [`read_line_chunks`].
 const READ_CHUNK_BYTES: usize = 1 << 20;
 

@@ -32,7 +32,7 @@ use std::time::Instant;
 
 use crate::io::FileError;
 pub use crate::io::recording::MAX_FRAME_PIXELS;
-use crate::io::recording::{GrayFrame, read_frame};
+use crate::io::recording::{GrayFrame, read_frame, read_frame_pair};
 use crate::sim::Scenario;
 
 /// One camera of a source.
@@ -79,15 +79,44 @@ impl CameraFrame {
         expected_size: Option<(u32, u32)>,
     ) -> Result<Arc<GrayFrame>, SourceError> {
         let image = match &self.data {
-            FrameData::Decoded(image) => Arc::clone(image),
-            FrameData::Png(path) => {
-                Arc::new(read_frame(path, None).map_err(|source| SourceError::Frame {
-                    camera: camera.to_string(),
-                    frame: self.frame,
-                    source,
-                })?)
-            }
+            FrameData::Decoded(image) => Ok(Arc::clone(image)),
+            FrameData::Png(path) => read_frame(path, None).map(Arc::new),
         };
+        self.checked(camera, expected_size, image)
+    }
+
+    /// Two frames' pixels, each as [`CameraFrame::decode`] gives it (with its camera's name
+    /// and size), two PNG files decoded side by side ([`read_frame_pair`]).
+    ///
+    /// # Errors
+    /// Each frame's own, as [`CameraFrame::decode`] gives it.
+    pub fn decode_pair(frames: [FrameToDecode<'_>; 2]) -> [Result<Arc<GrayFrame>, SourceError>; 2] {
+        let [(a, camera_a, size_a), (b, camera_b, size_b)] = frames;
+        match (&a.data, &b.data) {
+            (FrameData::Png(path_a), FrameData::Png(path_b)) => {
+                let [image_a, image_b] = read_frame_pair([path_a, path_b], [None, None]);
+                [
+                    a.checked(camera_a, size_a, image_a.map(Arc::new)),
+                    b.checked(camera_b, size_b, image_b.map(Arc::new)),
+                ]
+            }
+            _ => [a.decode(camera_a, size_a), b.decode(camera_b, size_b)],
+        }
+    }
+
+    /// This frame's decoded `image`, or its error, named, and its size checked against
+    /// `expected_size`.
+    fn checked(
+        &self,
+        camera: &str,
+        expected_size: Option<(u32, u32)>,
+        image: Result<Arc<GrayFrame>, FileError>,
+    ) -> Result<Arc<GrayFrame>, SourceError> {
+        let image = image.map_err(|source| SourceError::Frame {
+            camera: camera.to_string(),
+            frame: self.frame,
+            source,
+        })?;
         let (width, height) = image.dimensions();
         if let Some(expected) = expected_size
             && (width, height) != expected
@@ -102,6 +131,9 @@ impl CameraFrame {
         Ok(image)
     }
 }
+
+/// A frame to decode, its camera's name, and the size expected of it (the rig's).
+pub type FrameToDecode<'a> = (&'a CameraFrame, &'a str, Option<(u32, u32)>);
 
 /// The frames of all cameras at one instant.
 #[derive(Debug, Clone)]

@@ -35,6 +35,14 @@ pub enum GrayFrame {
 }
 
 impl GrayFrame {
+    /// Gives an 8-bit frame's pixel memory back to this thread's frame decoder
+    /// ([`super::gray_png::recycle`]) once the frame is no longer needed.
+    pub fn recycle(self) {
+        if let Self::Eight(image) = self {
+            super::gray_png::recycle(image.into_raw());
+        }
+    }
+
     /// `(width, height)` in pixels.
     #[must_use]
     pub fn dimensions(&self) -> (u32, u32) {
@@ -531,19 +539,77 @@ pub const MAX_FRAME_PIXELS: u64 = 50_000_000;
 /// [`FileError`] naming the file: unreadable, not a PNG, truncated, too large, or of the wrong
 /// size.
 pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<GrayFrame, FileError> {
-    let bytes = std::fs::read(path).map_err(|source| FileError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let not_png =
-        |e: image::ImageError| FileError::invalid(path, format!("not a readable PNG: {e}"));
+    decode_frame(path, read_frame_bytes(path, expected_size))
+}
+
+thread_local! {
+    /// The bytes of this thread's last frame files, reused ([`super::Spares`]): two, for a
+    /// pair.
+    static FILE_BYTES: std::cell::RefCell<Vec<Vec<u8>>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Two frames, each as [`read_frame`] reads it, two plain 8-bit gray frames decoded side by
+/// side ([`super::gray_png::decode_gray8_pair`]).
+pub fn read_frame_pair(
+    paths: [&Path; 2],
+    expected_sizes: [Option<(u32, u32)>; 2],
+) -> [Result<GrayFrame, FileError>; 2] {
+    let [a, b] = [0, 1].map(|k| read_frame_bytes(paths[k], expected_sizes[k]));
+    match (a, b) {
+        (Ok((a, true)), Ok((b, true))) => {
+            let [decoded_a, decoded_b] = super::gray_png::decode_gray8_pair(&a, &b);
+            let frames = [
+                frame_of(paths[0], &a, decoded_a),
+                frame_of(paths[1], &b, decoded_b),
+            ];
+            super::give_spare(&FILE_BYTES, a, 2);
+            super::give_spare(&FILE_BYTES, b, 2);
+            frames
+        }
+        (a, b) => [decode_frame(paths[0], a), decode_frame(paths[1], b)],
+    }
+}
+
+/// The frame of a file [`read_frame_bytes`] read, by the one-pass decoder when it is a plain
+/// 8-bit gray PNG and that decoder takes it, else by the general decoder; the bytes' memory
+/// kept by the thread for its next frame.
+fn decode_frame(
+    path: &Path,
+    read: Result<(Vec<u8>, bool), FileError>,
+) -> Result<GrayFrame, FileError> {
+    let (bytes, plain_gray8) = read?;
+    let decoded = if plain_gray8 {
+        super::gray_png::decode_gray8(&bytes)
+    } else {
+        None
+    };
+    let frame = frame_of(path, &bytes, decoded);
+    super::give_spare(&FILE_BYTES, bytes, 2);
+    frame
+}
+
+/// A frame file's bytes, its size checked (against `expected_size` when given, and
+/// [`MAX_FRAME_PIXELS`]), and whether it is a plain 8-bit gray PNG
+/// ([`super::gray_png::gray8_header`]).
+fn read_frame_bytes(
+    path: &Path,
+    expected_size: Option<(u32, u32)>,
+) -> Result<(Vec<u8>, bool), FileError> {
+    let mut bytes = super::take_spare(&FILE_BYTES, 0);
+    std::fs::File::open(path)
+        .and_then(|mut file| std::io::Read::read_to_end(&mut file, &mut bytes))
+        .map_err(|source| FileError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
     let plain_gray8 = super::gray_png::gray8_header(&bytes);
     let (fw, fh) = match plain_gray8 {
         Some(header) => (header.width, header.height),
         None => {
             image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png)
                 .into_dimensions()
-                .map_err(not_png)?
+                .map_err(|e| not_png(path, &e))?
         }
     };
     if let Some((w, h)) = expected_size
@@ -555,14 +621,22 @@ pub fn read_frame(path: &Path, expected_size: Option<(u32, u32)>) -> Result<Gray
         ));
     }
     check_frame_pixels(path, fw, fh)?;
-    if plain_gray8.is_some()
-        && let Some(image) = super::gray_png::decode_gray8(&bytes)
-    {
+    Ok((bytes, plain_gray8.is_some()))
+}
+
+/// The frame of a file's `bytes`: the image the one-pass decoder gave (`decoded`), or else
+/// the general decoder's.
+fn frame_of(path: &Path, bytes: &[u8], decoded: Option<GrayImage>) -> Result<GrayFrame, FileError> {
+    if let Some(image) = decoded {
         return Ok(GrayFrame::Eight(image));
     }
-    let image =
-        image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).map_err(not_png)?;
+    let image = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
+        .map_err(|e| not_png(path, &e))?;
     Ok(GrayFrame::from_dynamic(image))
+}
+
+fn not_png(path: &Path, error: &image::ImageError) -> FileError {
+    FileError::invalid(path, format!("not a readable PNG: {error}"))
 }
 
 /// Refuses an image of more than [`MAX_FRAME_PIXELS`], naming its size.
@@ -692,6 +766,38 @@ mod tests {
             message.contains("000002.png") && message.contains("8x6"),
             "{message}"
         );
+    }
+
+    #[test]
+    fn frames_read_in_pairs_are_what_each_reads_alone() {
+        // Plain 8-bit frames (decoded side by side), a 16-bit frame (the general decoder),
+        // a missing file, a frame of the wrong size: each of a pair gives what `read_frame`
+        // gives it, its error message too.
+        let dir = tempfile::tempdir().unwrap();
+        make(dir.path(), &[("cam0", 2), ("cam1", 2)]);
+        let rec = open_recording(dir.path(), None).unwrap();
+        let sixteen = dir.path().join("sixteen.png");
+        Gray16Image::from_fn(4, 4, |x, _| Luma([x as u16 * 4000]))
+            .save(&sixteen)
+            .unwrap();
+        let missing = dir.path().join("missing.png");
+        let cases = [
+            (rec.cameras[0].frames[0].as_path(), Some((8, 6))),
+            (rec.cameras[1].frames[1].as_path(), None),
+            (sixteen.as_path(), None),
+            (missing.as_path(), None),
+            (rec.cameras[0].frames[1].as_path(), Some((1280, 1024))),
+        ];
+        let alone = |(path, size): (&Path, Option<(u32, u32)>)| {
+            read_frame(path, size).map_err(|e| e.to_string())
+        };
+        for a in cases {
+            for b in cases {
+                let [pair_a, pair_b] = read_frame_pair([a.0, b.0], [a.1, b.1]);
+                assert_eq!(pair_a.map_err(|e| e.to_string()), alone(a));
+                assert_eq!(pair_b.map_err(|e| e.to_string()), alone(b));
+            }
+        }
     }
 
     #[test]

@@ -223,7 +223,8 @@ struct LiteralRuns {
     /// Where the first three literals' codes end in the index, a byte each, the first
     /// lowest; [`NO_END`] past the run (used while building).
     ends: Box<[u32; TABLE_SIZE]>,
-    /// The mask of an index's bits.
+    /// The bits of an index, and their mask.
+    index_bits: u32,
     mask: u64,
     /// Look-ups the buffer holds after a refill: `REFILL_BITS` / the index's bits.
     per_refill: usize,
@@ -238,6 +239,7 @@ impl LiteralRuns {
             meta: Box::new([0; TABLE_SIZE]),
             bytes: Box::new([0; TABLE_SIZE]),
             ends: Box::new([0; TABLE_SIZE]),
+            index_bits: TABLE_BITS,
             mask: TABLE_MASK,
             per_refill: 0,
         }
@@ -250,6 +252,16 @@ impl LiteralRuns {
         (bits.buffer & self.mask) as usize & (TABLE_SIZE - 1)
     }
 
+    /// [`LiteralRuns::index`] for a table of `INDEX_BITS` bits (0: any).
+    #[inline(always)]
+    fn index_by<const INDEX_BITS: u32>(&self, bits: &Bits<'_>) -> usize {
+        if INDEX_BITS == 0 {
+            self.index(bits)
+        } else {
+            (bits.buffer & ((1 << INDEX_BITS) - 1)) as usize
+        }
+    }
+
     /// Makes these the runs of the code whose table is `single`, on indices of `index_bits`.
     ///
     /// An index's run is its first literal followed by the run of the bits after that
@@ -259,6 +271,7 @@ impl LiteralRuns {
     /// and a mispredicted branch an index would cost more than the rest of its building):
     /// the ends that fit are counted a byte lane each.
     fn build(&mut self, single: &SymbolTable, index_bits: u32) {
+        self.index_bits = index_bits;
         self.mask = (1 << index_bits) - 1;
         self.per_refill = ((REFILL_BITS / index_bits) as usize).min(LOOKUPS_MAX);
         let (ends, bytes) = Self::decode_whole(single, 0, index_bits);
@@ -425,56 +438,302 @@ pub(super) fn inflate_zlib(
     piece: usize,
     mut progress: impl FnMut(&[u8]),
 ) -> Option<()> {
-    let (&[method, flags], body) = stream.split_first_chunk::<2>()?;
-    // Deflate, a window of at most 32 KiB, the header's check, no preset dictionary
-    // (RFC 1950 §2.2).
-    let header = u16::from_be_bytes([method, flags]);
-    if method & 15 != 8 || method >> 4 > 7 || header % 31 != 0 || flags & 0x20 != 0 {
-        return None;
+    Lane::new(stream, out, piece, &mut progress)?.inflate_alone()
+}
+
+/// Inflates two zlib streams, each as [`inflate_zlib`] inflates it (its own output, pieces
+/// and progress; each verdict its own), the literal runs of both decoded in one loop.
+///
+/// A stream's run look-ups form one chain (each index is the bits the last run left), so one
+/// stream keeps the core waiting on each look-up's load; a second, independent chain fills
+/// those waits (notes/speed.md). Once one stream ends or fails, the other goes on alone.
+pub(super) fn inflate_zlib_pair(
+    streams: [&[u8]; 2],
+    outs: [&mut [u8]; 2],
+    pieces: [usize; 2],
+    progress: [Progress<'_>; 2],
+) -> [Option<()>; 2] {
+    let [out_a, out_b] = outs;
+    let [progress_a, progress_b] = progress;
+    let a = Lane::new(streams[0], out_a, pieces[0], progress_a);
+    let b = Lane::new(streams[1], out_b, pieces[1], progress_b);
+    match (a, b) {
+        (Some(a), Some(b)) => inflate_together(a, b),
+        (a, b) => [
+            a.and_then(Lane::inflate_alone),
+            b.and_then(Lane::inflate_alone),
+        ],
     }
-    let mut bits = Bits {
-        input: body,
-        next: 0,
-        buffer: 0,
-        count: 0,
-    };
-    let mut written = 0;
-    let mut report = Report {
-        piece,
-        next: piece,
-        progress: &mut progress,
-    };
-    let mut run_bits = TABLE_BITS;
-    let mut tables = Tables::empty();
+}
+
+/// [`inflate_zlib_pair`] once both streams' headers are read.
+fn inflate_together(mut a: Lane<'_, '_, '_>, mut b: Lane<'_, '_, '_>) -> [Option<()>; 2] {
     loop {
-        bits.refill();
-        let last = bits.take(1) == 1;
-        let start = written;
-        match bits.take(2) {
-            0 => written = copy_stored(&mut bits, out, written)?,
-            1 => {
-                tables.build_fixed(run_bits)?;
-                written = inflate_block(&mut bits, &tables, out, written, &mut report)?;
-                run_bits = run_bits_after(written - start);
-            }
-            2 => {
-                tables.read_dynamic(&mut bits, run_bits)?;
-                written = inflate_block(&mut bits, &tables, out, written, &mut report)?;
-                run_bits = run_bits_after(written - start);
-            }
-            _ => return None, // block type 3 is reserved
+        match (a.enter_block(), b.enter_block()) {
+            (Some(true), Some(true)) => {}
+            (ready_a, ready_b) => return [a.go_on_alone(ready_a), b.go_on_alone(ready_b)],
         }
-        if written >= report.next {
-            (report.progress)(&out[..written]);
-            report.next = written.saturating_add(report.piece);
+        // The look-ups a refill holds and the index's bits as constants where the two tables
+        // agree (a mask in a register less: the loop's state then fits in the registers).
+        let [next_a, next_b] = match (a.tables.runs.index_bits, b.tables.runs.index_bits) {
+            (9, 9) => runs_together::<LOOKUPS_MAX, 9>(&mut a, &mut b),
+            (12, 12) => runs_together::<4, 12>(&mut a, &mut b),
+            _ => runs_together::<4, 0>(&mut a, &mut b),
+        };
+        if a.go_on(next_a).is_none() {
+            return [None, b.inflate_alone()];
         }
-        if last {
+        if b.go_on(next_b).is_none() {
+            return [a.inflate_alone(), None];
+        }
+    }
+}
+
+/// Where a stream stands when [`runs_together`] returns.
+#[derive(Clone, Copy)]
+enum Next {
+    /// Inside its block.
+    InBlock,
+    /// Its block ended.
+    EndOfBlock,
+    /// It is not valid.
+    Invalid,
+}
+
+/// Two streams' Huffman blocks decoded side by side, as [`inflate_block_by`] decodes one
+/// stream's, until either block ends, either stream turns out invalid, or either nears the
+/// end of its output or its next report.
+///
+/// `INDEX_BITS` is both tables' index bits, or 0 when they differ; `PER_REFILL` look-ups of
+/// the longer index fit in a refill.
+#[inline(never)]
+fn runs_together<const PER_REFILL: usize, const INDEX_BITS: u32>(
+    a: &mut Lane<'_, '_, '_>,
+    b: &mut Lane<'_, '_, '_>,
+) -> [Next; 2] {
+    let window = 4 * PER_REFILL + 1;
+    // Copies of the streams' states, which the compiler keeps in registers.
+    let (mut bits_a, mut bits_b) = (a.bits, b.bits);
+    let (mut written_a, mut written_b) = (a.written, b.written);
+    let (tables_a, tables_b) = (&a.tables, &b.tables);
+    let (runs_a, runs_b) = (&tables_a.runs, &tables_b.runs);
+    let (out_a, out_b) = (&mut *a.out, &mut *b.out);
+    // Each stream goes on while its window fits in its output, up to its next report.
+    let end_a = a.report.next.min((out_a.len() + 1).saturating_sub(window));
+    let end_b = b.report.next.min((out_b.len() + 1).saturating_sub(window));
+    let mut next = [Next::InBlock; 2];
+    while written_a < end_a && written_b < end_b {
+        bits_a.refill();
+        bits_b.refill();
+        let (Some(window_a), Some(window_b)) = (
+            out_a.get_mut(written_a..written_a + window),
+            out_b.get_mut(written_b..written_b + window),
+        ) else {
+            break;
+        };
+        // As in `inflate_block_by`: the metas summed, the buffers shifted by them unmasked;
+        // both streams stop at the first look-up that is not a run in either.
+        let (mut lookups, mut taken_a, mut taken_b) = (0, 0u32, 0u32);
+        while lookups < PER_REFILL {
+            let index_a = runs_a.index_by::<INDEX_BITS>(&bits_a);
+            let index_b = runs_b.index_by::<INDEX_BITS>(&bits_b);
+            let meta_a = u32::from(runs_a.meta[index_a]);
+            let meta_b = u32::from(runs_b.meta[index_b]);
+            if meta_a == 0 || meta_b == 0 {
+                break;
+            }
+            let at_a = (taken_a >> 6) as usize + lookups;
+            window_a[at_a..at_a + 4].copy_from_slice(&runs_a.bytes[index_a].to_le_bytes());
+            let at_b = (taken_b >> 6) as usize + lookups;
+            window_b[at_b..at_b + 4].copy_from_slice(&runs_b.bytes[index_b].to_le_bytes());
+            bits_a.shift_buffer(meta_a);
+            bits_b.shift_buffer(meta_b);
+            taken_a += meta_a;
+            taken_b += meta_b;
+            lookups += 1;
+        }
+        bits_a.count -= taken_a & 63;
+        bits_b.count -= taken_b & 63;
+        written_a += (taken_a >> 6) as usize + lookups;
+        written_b += (taken_b >> 6) as usize + lookups;
+        if lookups == PER_REFILL {
+            continue;
+        }
+        // A stream whose next symbol is not a run: that symbol, here (one in 50 look-ups on
+        // OpenCV's frames: leaving the loop for it cost more than the symbol).
+        bits_a.refill();
+        if runs_a.meta[runs_a.index(&bits_a)] == 0 {
+            match symbol(&mut bits_a, tables_a, out_a, written_a) {
+                Some(Symbol::Wrote(after)) => written_a = after,
+                Some(Symbol::EndOfBlock) => next[0] = Next::EndOfBlock,
+                None => next[0] = Next::Invalid,
+            }
+        }
+        bits_b.refill();
+        if runs_b.meta[runs_b.index(&bits_b)] == 0 {
+            match symbol(&mut bits_b, tables_b, out_b, written_b) {
+                Some(Symbol::Wrote(after)) => written_b = after,
+                Some(Symbol::EndOfBlock) => next[1] = Next::EndOfBlock,
+                None => next[1] = Next::Invalid,
+            }
+        }
+        if !matches!(next, [Next::InBlock, Next::InBlock]) {
             break;
         }
     }
-    (report.progress)(&out[..written]);
-    let read = bits.bytes_read()?;
-    (written == out.len() && read.checked_add(4)? == body.len()).then_some(())
+    (a.bits, a.written) = (bits_a, written_a);
+    (b.bits, b.written) = (bits_b, written_b);
+    next
+}
+
+/// One zlib stream being inflated, taken on a block or a symbol at a time: between blocks, or
+/// inside a Huffman block's data.
+struct Lane<'s, 'o, 'p> {
+    bits: Bits<'s>,
+    out: &'o mut [u8],
+    /// Bytes of `out` written.
+    written: usize,
+    tables: Tables,
+    /// The bits of the next Huffman block's run table ([`run_bits_after`]).
+    run_bits: u32,
+    /// Where the Huffman block being inflated started in `out`; `None` between blocks.
+    block_start: Option<usize>,
+    /// Whether the block read last is the stream's last.
+    last: bool,
+    report: Report<'p>,
+}
+
+impl<'s, 'o, 'p> Lane<'s, 'o, 'p> {
+    /// A stream whose zlib header is read; `None` when this decoder does not take it.
+    fn new(
+        stream: &'s [u8],
+        out: &'o mut [u8],
+        piece: usize,
+        progress: Progress<'p>,
+    ) -> Option<Self> {
+        let (&[method, flags], body) = stream.split_first_chunk::<2>()?;
+        // Deflate, a window of at most 32 KiB, the header's check, no preset dictionary
+        // (RFC 1950 §2.2).
+        let header = u16::from_be_bytes([method, flags]);
+        if method & 15 != 8 || method >> 4 > 7 || header % 31 != 0 || flags & 0x20 != 0 {
+            return None;
+        }
+        Some(Self {
+            bits: Bits {
+                input: body,
+                next: 0,
+                buffer: 0,
+                count: 0,
+            },
+            out,
+            written: 0,
+            tables: Tables::empty(),
+            run_bits: TABLE_BITS,
+            block_start: None,
+            last: false,
+            // (At least a byte a piece: a stream paired with another advances between
+            // reports.)
+            report: Report {
+                piece: piece.max(1),
+                next: piece.max(1),
+                progress,
+            },
+        })
+    }
+
+    /// The rest of the stream, one Huffman block at a time by [`inflate_block`].
+    fn inflate_alone(mut self) -> Option<()> {
+        while self.enter_block()? {
+            self.written = inflate_block(
+                &mut self.bits,
+                &self.tables,
+                self.out,
+                self.written,
+                &mut self.report,
+            )?;
+            self.end_block();
+        }
+        self.finish()
+    }
+
+    /// After [`Lane::enter_block`] said `ready`: the stream inflated to its end alone.
+    fn go_on_alone(self, ready: Option<bool>) -> Option<()> {
+        match ready? {
+            true => self.inflate_alone(),
+            false => self.finish(),
+        }
+    }
+
+    /// Reads block headers (copying stored blocks) until a Huffman block's data comes next,
+    /// its tables built: `Some(true)`; `Some(false)` once the last block is done; `None`
+    /// for a stream that is not valid. Inside a Huffman block it does nothing.
+    fn enter_block(&mut self) -> Option<bool> {
+        while self.block_start.is_none() {
+            if self.last {
+                return Some(false);
+            }
+            self.bits.refill();
+            self.last = self.bits.take(1) == 1;
+            match self.bits.take(2) {
+                0 => {
+                    self.written = copy_stored(&mut self.bits, self.out, self.written)?;
+                    self.report.check(&self.out[..self.written]);
+                }
+                1 => {
+                    self.tables.build_fixed(self.run_bits)?;
+                    self.block_start = Some(self.written);
+                }
+                2 => {
+                    self.tables.read_dynamic(&mut self.bits, self.run_bits)?;
+                    self.block_start = Some(self.written);
+                }
+                _ => return None, // block type 3 is reserved
+            }
+        }
+        Some(true)
+    }
+
+    /// After a Huffman block's end.
+    fn end_block(&mut self) {
+        if let Some(start) = self.block_start.take() {
+            self.run_bits = run_bits_after(self.written - start);
+        }
+        self.report.check(&self.out[..self.written]);
+    }
+
+    /// Takes the stream on from where [`runs_together`] left it (`next`): its block ended,
+    /// or the progress shown when due and, near the end of `out`, one symbol decoded by
+    /// [`symbol`]. `None` for a stream that is not valid.
+    fn go_on(&mut self, next: Next) -> Option<()> {
+        match next {
+            Next::Invalid => return None,
+            Next::EndOfBlock => {
+                self.end_block();
+                return Some(());
+            }
+            Next::InBlock => {}
+        }
+        self.report.check(&self.out[..self.written]);
+        self.bits.refill();
+        let runs = &self.tables.runs;
+        let window = 4 * runs.per_refill.min(LOOKUPS_MAX) + 1;
+        if runs.meta[runs.index(&self.bits)] != 0 && self.written + window <= self.out.len() {
+            return Some(());
+        }
+        match symbol(&mut self.bits, &self.tables, self.out, self.written)? {
+            Symbol::Wrote(written) => self.written = written,
+            Symbol::EndOfBlock => self.end_block(),
+        }
+        Some(())
+    }
+
+    /// The stream's end: the whole output shown, its length and the input's checked.
+    fn finish(self) -> Option<()> {
+        (self.report.progress)(&self.out[..self.written]);
+        let read = self.bits.bytes_read()?;
+        (self.written == self.out.len() && read.checked_add(4)? == self.bits.input.len())
+            .then_some(())
+    }
 }
 
 /// Copies a stored block (RFC 1951 §3.2.4; its 3 header bits read) into `out` from `written`
@@ -499,12 +758,26 @@ fn copy_stored(bits: &mut Bits<'_>, out: &mut [u8], written: usize) -> Option<us
     Some(end)
 }
 
+/// What is shown the output inflated so far.
+type Progress<'p> = &'p mut dyn FnMut(&[u8]);
+
 /// Where the caller is next shown the output.
-struct Report<'p, P> {
+struct Report<'p> {
     piece: usize,
     /// The output's length at which `progress` is called next.
     next: usize,
-    progress: &'p mut P,
+    progress: Progress<'p>,
+}
+
+impl Report<'_> {
+    /// Shows `done` (the output so far) when it reached the next piece.
+    #[inline(always)]
+    fn check(&mut self, done: &[u8]) {
+        if done.len() >= self.next {
+            (self.progress)(done);
+            self.next = done.len().saturating_add(self.piece);
+        }
+    }
 }
 
 /// A Huffman block's tables, built anew for each block in the memory of the stream's first.
@@ -597,37 +870,34 @@ impl Tables {
 
 /// Inflates one Huffman block's data into `out` from `written` on; how far `out` is written
 /// after it.
-fn inflate_block<P: FnMut(&[u8])>(
+fn inflate_block(
     stream: &mut Bits<'_>,
     tables: &Tables,
     out: &mut [u8],
     written: usize,
-    report: &mut Report<'_, P>,
+    report: &mut Report<'_>,
 ) -> Option<usize> {
     // The look-ups a refill holds, a constant in each loop (unrolled).
     if tables.runs.per_refill >= LOOKUPS_MAX {
-        inflate_block_by::<LOOKUPS_MAX, P>(stream, tables, out, written, report)
+        inflate_block_by::<LOOKUPS_MAX>(stream, tables, out, written, report)
     } else {
-        inflate_block_by::<4, P>(stream, tables, out, written, report)
+        inflate_block_by::<4>(stream, tables, out, written, report)
     }
 }
 
 /// [`inflate_block`] with `PER_REFILL` run look-ups a refill.
-fn inflate_block_by<const PER_REFILL: usize, P: FnMut(&[u8])>(
+fn inflate_block_by<const PER_REFILL: usize>(
     stream: &mut Bits<'_>,
     tables: &Tables,
     out: &mut [u8],
     mut written: usize,
-    report: &mut Report<'_, P>,
+    report: &mut Report<'_>,
 ) -> Option<usize> {
     // A copy of the stream's state, which the compiler keeps in registers.
     let mut local = *stream;
     let bits = &mut local;
     loop {
-        if written >= report.next {
-            (report.progress)(&out[..written]);
-            report.next = written.saturating_add(report.piece);
-        }
+        report.check(&out[..written]);
         bits.refill();
         // Literal runs: as many look-ups a refill as the 56 bits hold (four of 12 bits, six
         // of 9), each writing four bytes (its run, then bytes the next run overwrites), while
@@ -657,48 +927,65 @@ fn inflate_block_by<const PER_REFILL: usize, P: FnMut(&[u8])>(
             }
             bits.refill();
         }
-        // One symbol: a length, the block's end, or a literal near the end of `out` (or of
-        // more than 12 bits).
-        let (symbol, length) = tables.litlen.peek(bits)?;
-        bits.consume(length);
-        if symbol < usize::from(END_OF_BLOCK) {
-            *out.get_mut(written)? = symbol as u8;
-            written += 1;
-            continue;
-        }
-        if symbol == usize::from(END_OF_BLOCK) {
-            *stream = *bits;
-            return Some(written);
-        }
-        // A length (at most 15 + 5 bits) and a distance (15 + 13): 48 of the 56 bits.
-        let which = symbol - 257;
-        let extra = u32::from(*LENGTH_EXTRA.get(which)?);
-        let copy = usize::from(LENGTH_BASE[which]) + bits.take(extra);
-        let (symbol, length) = tables.distance.peek(bits)?;
-        if symbol >= DISTANCE_SYMBOLS {
-            return None;
-        }
-        bits.consume(length);
-        let back =
-            usize::from(DISTANCE_BASE[symbol]) + bits.take(u32::from(DISTANCE_EXTRA[symbol]));
-        let from = written.checked_sub(back)?;
-        let end = written + copy;
-        if end > out.len() {
-            return None;
-        }
-        if back >= copy {
-            out.copy_within(from..from + copy, written);
-        } else if back == 1 {
-            let byte = out[from];
-            out[written..end].fill(byte);
-        } else {
-            // Overlapping: each byte is one the copy itself wrote `back` earlier.
-            for i in written..end {
-                out[i] = out[i - back];
+        match symbol(bits, tables, out, written)? {
+            Symbol::Wrote(after) => written = after,
+            Symbol::EndOfBlock => {
+                *stream = *bits;
+                return Some(written);
             }
         }
-        written = end;
     }
+}
+
+/// What [`symbol`] decoded.
+enum Symbol {
+    /// A literal or a match, `out` written up to here.
+    Wrote(usize),
+    /// The block's end.
+    EndOfBlock,
+}
+
+/// Decodes one symbol of a Huffman block whose output reached `written` (the caller refilled
+/// the buffer): a length and its distance (the match copied), the block's end, or a literal
+/// near the end of `out` (or of more than 12 bits). `None` for a stream that is not valid.
+#[inline(always)]
+fn symbol(bits: &mut Bits<'_>, tables: &Tables, out: &mut [u8], written: usize) -> Option<Symbol> {
+    let (symbol, length) = tables.litlen.peek(bits)?;
+    bits.consume(length);
+    if symbol < usize::from(END_OF_BLOCK) {
+        *out.get_mut(written)? = symbol as u8;
+        return Some(Symbol::Wrote(written + 1));
+    }
+    if symbol == usize::from(END_OF_BLOCK) {
+        return Some(Symbol::EndOfBlock);
+    }
+    // A length (at most 15 + 5 bits) and a distance (15 + 13): 48 of the 56 bits.
+    let which = symbol - 257;
+    let extra = u32::from(*LENGTH_EXTRA.get(which)?);
+    let copy = usize::from(LENGTH_BASE[which]) + bits.take(extra);
+    let (symbol, length) = tables.distance.peek(bits)?;
+    if symbol >= DISTANCE_SYMBOLS {
+        return None;
+    }
+    bits.consume(length);
+    let back = usize::from(DISTANCE_BASE[symbol]) + bits.take(u32::from(DISTANCE_EXTRA[symbol]));
+    let from = written.checked_sub(back)?;
+    let end = written + copy;
+    if end > out.len() {
+        return None;
+    }
+    if back >= copy {
+        out.copy_within(from..from + copy, written);
+    } else if back == 1 {
+        let byte = out[from];
+        out[written..end].fill(byte);
+    } else {
+        // Overlapping: each byte is one the copy itself wrote `back` earlier.
+        for i in written..end {
+            out[i] = out[i - back];
+        }
+    }
+    Some(Symbol::Wrote(end))
 }
 
 #[cfg(test)]
@@ -771,6 +1058,73 @@ mod tests {
             flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::new(level));
         encoder.write_all(data).expect("in memory");
         encoder.finish().expect("in memory")
+    }
+
+    /// Two streams inflated side by side, each with its own output, pieces and progress
+    /// (checked to go forward and to end on the whole output when taken).
+    fn ours_pair(a: (&[u8], usize), b: (&[u8], usize)) -> [Option<Vec<u8>>; 2] {
+        let (mut out_a, mut out_b) = (vec![0xAA; a.1], vec![0x55; b.1]);
+        let (mut shown_a, mut shown_b) = (0, 0);
+        let mut progress_a = |done: &[u8]| {
+            assert!(done.len() >= shown_a, "progress went back");
+            shown_a = done.len();
+        };
+        let mut progress_b = |done: &[u8]| {
+            assert!(done.len() >= shown_b, "progress went back");
+            shown_b = done.len();
+        };
+        let [taken_a, taken_b] = inflate_zlib_pair(
+            [a.0, b.0],
+            [&mut out_a, &mut out_b],
+            [1000, 337],
+            [&mut progress_a, &mut progress_b],
+        );
+        if taken_a.is_some() {
+            assert_eq!(shown_a, a.1, "the whole output shown at the end");
+        }
+        if taken_b.is_some() {
+            assert_eq!(shown_b, b.1, "the whole output shown at the end");
+        }
+        [taken_a.map(|()| out_a), taken_b.map(|()| out_b)]
+    }
+
+    #[test]
+    fn two_streams_inflated_side_by_side_give_what_each_gives_alone() {
+        // Streams of every kind this decoder meets: fdeflate's one block of 12-bit runs,
+        // zlib's stored, fixed and dynamic blocks of 9-bit runs with matches and codes longer
+        // than the table, of different lengths (one ends while the other goes on), and
+        // damaged or cut ones (refused, or whatever a reading alone makes of them).
+        let noise = filtered_noise(640, 40, 2.5, 31);
+        let small = filtered_noise(97, 23, 1.5, 32);
+        let skewed_data = skewed(60_000, 33);
+        let mut streams: Vec<(Vec<u8>, usize)> = vec![
+            (fdeflate_stream(&noise), noise.len()),
+            (fdeflate_stream(&small), small.len()),
+            (zlib_stream(&noise, 1), noise.len()),
+            (zlib_stream(&noise, 6), noise.len()),
+            (zlib_stream(&noise, 0), noise.len()),
+            (zlib_stream(&skewed_data, 9), skewed_data.len()),
+            (zlib_stream(b"abcabcabcabd", 6), 12),
+            (zlib_stream(&[], 6), 0),
+        ];
+        let mut cut = streams[3].0.clone();
+        cut.truncate(cut.len() / 2);
+        streams.push((cut, noise.len()));
+        let mut flipped = streams[2].0.clone();
+        flipped[900] ^= 0x10;
+        streams.push((flipped, noise.len()));
+        let long = streams[2].0.clone();
+        streams.push((long, noise.len() - 1));
+        let mut taken_together = 0;
+        for (a, len_a) in &streams {
+            for (b, len_b) in &streams {
+                let alone = [ours(a, *len_a), ours(b, *len_b)];
+                let together = ours_pair((a, *len_a), (b, *len_b));
+                assert_eq!(together, alone);
+                taken_together += usize::from(together.iter().all(Option::is_some));
+            }
+        }
+        assert!(taken_together >= 60, "{taken_together} pairs both taken");
     }
 
     #[test]
@@ -1004,9 +1358,15 @@ mod tests {
                 let at = 2 + at % (stream.len() - 2);
                 stream[at] ^= 1 << bit;
             }
-            if let Some(got) = ours(&stream, data.len()) {
-                prop_assert_eq!(Some(got), reference(&stream, data.len()));
+            let alone = ours(&stream, data.len());
+            if let Some(got) = &alone {
+                prop_assert_eq!(Some(got.clone()), reference(&stream, data.len()));
             }
+            // Beside an undamaged stream, each gives what it gives alone.
+            let clean = fdeflate_stream(&data);
+            let [damaged, undamaged] = ours_pair((&stream, data.len()), (&clean, data.len()));
+            prop_assert_eq!(damaged, alone);
+            prop_assert_eq!(undamaged, Some(data.clone()));
         }
     }
 }
