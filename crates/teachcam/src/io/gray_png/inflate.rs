@@ -561,22 +561,8 @@ fn runs_together<const PER_REFILL: usize, const INDEX_BITS: u32>(
         }
         // A stream whose next symbol is not a run: that symbol, here (one in 50 look-ups on
         // OpenCV's frames: leaving the loop for it cost more than the symbol).
-        bits_a.refill();
-        if runs_a.meta[runs_a.index(&bits_a)] == 0 {
-            match symbol(&mut bits_a, tables_a, out_a, written_a) {
-                Some(Symbol::Wrote(after)) => written_a = after,
-                Some(Symbol::EndOfBlock) => next[0] = Next::EndOfBlock,
-                None => next[0] = Next::Invalid,
-            }
-        }
-        bits_b.refill();
-        if runs_b.meta[runs_b.index(&bits_b)] == 0 {
-            match symbol(&mut bits_b, tables_b, out_b, written_b) {
-                Some(Symbol::Wrote(after)) => written_b = after,
-                Some(Symbol::EndOfBlock) => next[1] = Next::EndOfBlock,
-                None => next[1] = Next::Invalid,
-            }
-        }
+        (written_a, next[0]) = symbol_unless_run(&mut bits_a, tables_a, out_a, written_a);
+        (written_b, next[1]) = symbol_unless_run(&mut bits_b, tables_b, out_b, written_b);
         if !matches!(next, [Next::InBlock, Next::InBlock]) {
             break;
         }
@@ -584,6 +570,26 @@ fn runs_together<const PER_REFILL: usize, const INDEX_BITS: u32>(
     (a.bits, a.written) = (bits_a, written_a);
     (b.bits, b.written) = (bits_b, written_b);
     next
+}
+
+/// For [`runs_together`]: the stream's next symbol by [`symbol`] unless a literal run comes
+/// next; how far `out` is written after it, and where the stream stands.
+#[inline(always)]
+fn symbol_unless_run(
+    bits: &mut Bits<'_>,
+    tables: &Tables,
+    out: &mut [u8],
+    written: usize,
+) -> (usize, Next) {
+    bits.refill();
+    if tables.runs.meta[tables.runs.index(bits)] != 0 {
+        return (written, Next::InBlock);
+    }
+    match symbol(bits, tables, out, written) {
+        Some(Symbol::Wrote(after)) => (after, Next::InBlock),
+        Some(Symbol::EndOfBlock) => (written, Next::EndOfBlock),
+        None => (written, Next::Invalid),
+    }
 }
 
 /// One zlib stream being inflated, taken on a block or a symbol at a time: between blocks, or
