@@ -1,6 +1,7 @@
 //! Numbers in CSV text, written and read without building a `String` per number.
 //!
-//! - [`TextBuffer::fixed`] ([`push_fixed`] for one number): `x` with `N` decimals, byte for byte what `format!("{x:.N$}")` writes.
+//! - [`TextBuffer::fixed`]: `x` with `N` decimals, byte for byte what `format!("{x:.N$}")`
+//!   writes.
 //!   That text is the exact binary value of `x` rounded to `N` decimals, the sign kept for
 //!   every negative value (`-0.000000` too). Fast path: `y = fl(|x| · 10^N)` (`10^N` exact for
 //!   `N ≤ 15`) is within half an ulp of the exact product, so `round(y)` is the exact product's
@@ -162,12 +163,6 @@ impl Drop for TextBuffer<'_> {
     }
 }
 
-/// Appends `value` with `decimals` digits after the point, exactly as
-/// `format!("{value:.decimals$}")` would (one number: many are a [`TextBuffer`]'s).
-pub fn push_fixed(out: &mut Vec<u8>, value: f64, decimals: usize) {
-    TextBuffer::new(out).fixed(value, decimals);
-}
-
 /// The eight decimal digits of `value < 10^8` as ASCII bytes, the first in the lowest byte,
 /// leading zeros included: halved into lanes of 32, 16 and 8 bits, each lane's division by
 /// 100 and 10 a multiplication and a shift, all lanes at once.
@@ -238,7 +233,7 @@ mod tests {
 
     fn fixed(value: f64, decimals: usize) -> String {
         let mut out = Vec::new();
-        push_fixed(&mut out, value, decimals);
+        TextBuffer::new(&mut out).fixed(value, decimals);
         String::from_utf8(out).unwrap()
     }
 

@@ -84,8 +84,8 @@ pub fn decode_gray8(bytes: &[u8]) -> Option<GrayImage> {
 }
 
 /// Two frame files' images, each what [`decode_gray8`] gives for it, their streams inflated
-/// side by side ([`inflate::inflate_zlib_pair`]: about 1.5 times one stream's speed on
-/// OpenCV's frames, notes/speed.md).
+/// side by side ([`inflate::inflate_zlib_pair`]: 1.2 times one at a time on OpenCV's frames,
+/// 1.28 on teachcam's own, one thread; notes/speed.md).
 #[must_use]
 pub fn decode_gray8_pair(a: &[u8], b: &[u8]) -> [Option<GrayImage>; 2] {
     let (Some(frame_a), Some(frame_b)) = (parse(a), parse(b)) else {

@@ -294,16 +294,8 @@ impl<'p> TrajectoryReader<'p> {
                 // Rows are about as long as the first: one allocation in the common case.
                 self.samples.reserve(self.size_bytes / (row.len() + 1) + 1);
             }
-            split_fields(row, &mut fields);
-            if fields.len() != layout.columns {
-                return Err(FileError::invalid_line(
-                    path,
-                    line,
-                    format!("{} fields, header has {}", fields.len(), layout.columns),
-                ));
-            }
-            let sample =
-                parse_row(&fields, &layout).map_err(|m| FileError::invalid_line(path, line, m))?;
+            let sample = row_sample(row, &layout, &mut fields)
+                .map_err(|m| FileError::invalid_line(path, line, m))?;
             if let Some(previous) = self.samples.last() {
                 if sample.frame <= previous.frame {
                     return Err(FileError::invalid_line(
@@ -360,14 +352,12 @@ impl<'p> TrajectoryReader<'p> {
         self.samples.par_extend(rows.into_par_iter().map_init(
             || Vec::with_capacity(layout.columns),
             |fields, range| {
-                split_fields(text[range].trim_end_matches('\r'), fields);
-                if fields.len() == layout.columns {
-                    if let Ok(sample) = parse_row(fields, &layout) {
-                        return sample;
-                    }
-                }
-                failed.store(true, Ordering::Relaxed);
-                Sample::gap(FrameIndex(0), 0.0)
+                row_sample(text[range].trim_end_matches('\r'), &layout, fields).unwrap_or_else(
+                    |_| {
+                        failed.store(true, Ordering::Relaxed);
+                        Sample::gap(FrameIndex(0), 0.0)
+                    },
+                )
             },
         ));
         let increasing = self.samples[start.saturating_sub(1)..]
@@ -448,6 +438,24 @@ fn header_layout(header: &str) -> Option<Layout> {
         status: position("status"),
         cameras: position("cameras"),
     })
+}
+
+/// The sample of one row that is not blank (its line end cut), `fields` its fields' scratch;
+/// the error message names the column.
+fn row_sample<'a>(
+    row: &'a str,
+    layout: &Layout,
+    fields: &mut Vec<&'a str>,
+) -> Result<Sample, String> {
+    split_fields(row, fields);
+    if fields.len() != layout.columns {
+        return Err(format!(
+            "{} fields, header has {}",
+            fields.len(),
+            layout.columns
+        ));
+    }
+    parse_row(fields, layout)
 }
 
 /// `row`'s comma-separated fields, trimmed, into `fields` (emptied first).

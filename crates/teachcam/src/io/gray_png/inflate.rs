@@ -561,8 +561,9 @@ fn runs_together<const PER_REFILL: usize, const INDEX_BITS: u32>(
         }
         // A stream whose next symbol is not a run: that symbol, here (one in 50 look-ups on
         // OpenCV's frames: leaving the loop for it cost more than the symbol).
-        (written_a, next[0]) = symbol_unless_run(&mut bits_a, tables_a, out_a, written_a);
-        (written_b, next[1]) = symbol_unless_run(&mut bits_b, tables_b, out_b, written_b);
+        // (The loop's condition checks the windows again.)
+        (written_a, next[0]) = symbol_unless_run(&mut bits_a, tables_a, out_a, written_a, true);
+        (written_b, next[1]) = symbol_unless_run(&mut bits_b, tables_b, out_b, written_b, true);
         if !matches!(next, [Next::InBlock, Next::InBlock]) {
             break;
         }
@@ -572,17 +573,18 @@ fn runs_together<const PER_REFILL: usize, const INDEX_BITS: u32>(
     next
 }
 
-/// For [`runs_together`]: the stream's next symbol by [`symbol`] unless a literal run comes
-/// next; how far `out` is written after it, and where the stream stands.
+/// A stream's next symbol by [`symbol`] unless a literal run comes next and `room` says its
+/// window fits in `out`; how far `out` is written after it, and where the stream stands.
 #[inline(always)]
 fn symbol_unless_run(
     bits: &mut Bits<'_>,
     tables: &Tables,
     out: &mut [u8],
     written: usize,
+    room: bool,
 ) -> (usize, Next) {
     bits.refill();
-    if tables.runs.meta[tables.runs.index(bits)] != 0 {
+    if room && tables.runs.meta[tables.runs.index(bits)] != 0 {
         return (written, Next::InBlock);
     }
     match symbol(bits, tables, out, written) {
@@ -708,27 +710,24 @@ impl<'s, 'o, 'p> Lane<'s, 'o, 'p> {
     }
 
     /// Takes the stream on from where [`runs_together`] left it (`next`): its block ended,
-    /// or the progress shown when due and, near the end of `out`, one symbol decoded by
-    /// [`symbol`]. `None` for a stream that is not valid.
+    /// or the progress shown when due and the next symbol decoded by [`symbol`] unless a
+    /// literal run with room for it comes next. `None` for a stream that is not valid.
     fn go_on(&mut self, next: Next) -> Option<()> {
-        match next {
-            Next::Invalid => return None,
-            Next::EndOfBlock => {
-                self.end_block();
-                return Some(());
+        let next = match next {
+            Next::InBlock => {
+                self.report.check(&self.out[..self.written]);
+                let room = self.written + 4 * self.tables.runs.per_refill < self.out.len();
+                let (written, next) =
+                    symbol_unless_run(&mut self.bits, &self.tables, self.out, self.written, room);
+                self.written = written;
+                next
             }
+            ended_or_invalid => ended_or_invalid,
+        };
+        match next {
             Next::InBlock => {}
-        }
-        self.report.check(&self.out[..self.written]);
-        self.bits.refill();
-        let runs = &self.tables.runs;
-        let window = 4 * runs.per_refill.min(LOOKUPS_MAX) + 1;
-        if runs.meta[runs.index(&self.bits)] != 0 && self.written + window <= self.out.len() {
-            return Some(());
-        }
-        match symbol(&mut self.bits, &self.tables, self.out, self.written)? {
-            Symbol::Wrote(written) => self.written = written,
-            Symbol::EndOfBlock => self.end_block(),
+            Next::EndOfBlock => self.end_block(),
+            Next::Invalid => return None,
         }
         Some(())
     }
